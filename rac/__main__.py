@@ -1,0 +1,5 @@
+import sys
+
+from rac.cli import main
+
+sys.exit(main())

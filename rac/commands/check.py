@@ -1,0 +1,31 @@
+"""``racc check``: validate a model without writing anything."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from rac.commands.common import add_command, load_and_compile
+
+
+def register(sub: Any) -> None:
+    parser = add_command(
+        sub,
+        "check",
+        "validate a model, write nothing",
+        "Parse and validate MODEL; print every error and warning with file, line and column.",
+        "  racc check models/tedusar.ram\n  racc check robot.json",
+    )
+    parser.add_argument("model", metavar="MODEL", help="a .ram file or a ram/1 .json")
+    parser.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    compiled = load_and_compile(args.model)
+    model = compiled.model
+    print(
+        f"{args.model}: ok ({len(model.nodes)} nodes, {len(model.hardware)} hardware, "
+        f"{len(model.topics)} topics, {len(compiled.components)} components, "
+        f"{len(compiled.warnings)} warnings)"
+    )
+    return 0

@@ -1,0 +1,96 @@
+"""``racc compile``: derive every artefact of contract §4 into one directory."""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+from rac.commands.common import add_command, load_and_compile, write_files_atomically
+from rac.targets import (
+    DEFAULT_MODEL_SERVER_PACKAGE,
+    DEFAULT_OBSERVERS_PACKAGE,
+    EmitOptions,
+    targets,
+)
+
+SVG_NOTE = (
+    "note: Graphviz 'dot' was not found, so architecture.svg was not written; "
+    "install it (Debian/Ubuntu: apt-get install graphviz) or render architecture.dot elsewhere"
+)
+
+
+def register(sub: Any) -> None:
+    names = ", ".join(f"{t.filename} ({t.description})" for t in targets())
+    parser = add_command(
+        sub,
+        "compile",
+        "compile a model into the diagnosis and repair artefacts",
+        f"Compile MODEL (.ram or ram/1 .json) and write into DIR: {names}, and "
+        "architecture.svg when Graphviz is installed. Nothing is written when the model has errors.",
+        "  racc compile models/tedusar.ram -o build/tedusar\n"
+        "  racc compile robot.json -o out --ros-package my_observers --no-svg",
+    )
+    parser.add_argument("model", metavar="MODEL", help="the model: a .ram file or a ram/1 .json")
+    parser.add_argument(
+        "-o", "--output", metavar="DIR", default="build", help="output directory (default: build)"
+    )
+    parser.add_argument(
+        "--ros-package",
+        metavar="PKG",
+        default=DEFAULT_OBSERVERS_PACKAGE,
+        help="ROS package holding the observer executables (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--model-server-package",
+        metavar="PKG",
+        default=DEFAULT_MODEL_SERVER_PACKAGE,
+        help="ROS package of diagnosis_model_server.py (default: %(default)s)",
+    )
+    parser.add_argument("--no-svg", action="store_true", help="do not render architecture.svg")
+    parser.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
+    parser.set_defaults(run=run)
+
+
+def render_svg(dot_text: str) -> bytes | None:
+    """architecture.svg from the DOT text, or None where Graphviz is missing or fails."""
+    dot = shutil.which("dot")
+    if dot is None:
+        return None
+    done = subprocess.run(
+        [dot, "-Tsvg"], input=dot_text.encode("utf-8"), capture_output=True, timeout=120, check=False
+    )
+    if done.returncode != 0:
+        print(f"warning: dot failed: {done.stderr.decode(errors='replace').strip()}", file=sys.stderr)
+        return None
+    return done.stdout
+
+
+def run(args: argparse.Namespace) -> int:
+    compiled = load_and_compile(args.model, quiet=args.quiet)
+    options = EmitOptions(
+        observers_package=args.ros_package, model_server_package=args.model_server_package
+    )
+    files: dict[str, str | bytes] = {t.filename: t.emit(compiled, options) for t in targets()}
+    if not args.no_svg:
+        svg = render_svg(str(files["architecture.dot"]))
+        if svg is None:
+            if shutil.which("dot") is None and not args.quiet:
+                print(SVG_NOTE, file=sys.stderr)
+        else:
+            files["architecture.svg"] = svg
+    out = Path(args.output)
+    write_files_atomically(out, files)
+    if not args.quiet:
+        model = compiled.model
+        print(
+            f"compiled {model.name.value}: {len(model.nodes)} nodes, {len(model.hardware)} hardware, "
+            f"{len(model.topics)} topics -> {len(compiled.rbm)} clauses, "
+            f"{len(compiled.observers)} observers"
+        )
+        for name in sorted(files):
+            print(f"  wrote {out / name}")
+    return 0

@@ -1,0 +1,57 @@
+"""``racc fmt``: rewrite .ram files in canonical form (comments kept, idempotent)."""
+
+from __future__ import annotations
+
+import argparse
+import difflib
+import sys
+from pathlib import Path
+from typing import Any
+
+from rac.commands.common import add_command, write_file_atomically
+from rac.fmt import format_model
+from rac.loader import read_text
+from rac.parse import parse_ram
+
+
+def register(sub: Any) -> None:
+    parser = add_command(
+        sub,
+        "fmt",
+        "format .ram files canonically",
+        "Rewrite each FILE in canonical form. With --check, change nothing and exit 1 "
+        "when a file is not formatted (for CI).",
+        "  racc fmt models/tedusar.ram\n  racc fmt --check models/*.ram\n  racc fmt --diff robot.ram",
+    )
+    parser.add_argument("files", metavar="FILE", nargs="+", help=".ram files")
+    mode = parser.add_mutually_exclusive_group()
+    mode.add_argument("--check", action="store_true", help="only report files that would change")
+    mode.add_argument("--diff", action="store_true", help="print a unified diff, change nothing")
+    parser.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    unformatted = 0
+    for name in args.files:
+        text = read_text(name)
+        formatted = format_model(parse_ram(text, name))
+        if formatted == text:
+            continue
+        unformatted += 1
+        if args.check:
+            print(f"would reformat {name}", file=sys.stderr)
+        elif args.diff:
+            sys.stdout.writelines(
+                difflib.unified_diff(
+                    text.splitlines(keepends=True),
+                    formatted.splitlines(keepends=True),
+                    fromfile=name,
+                    tofile=f"{name} (formatted)",
+                )
+            )
+        else:
+            write_file_atomically(Path(name), formatted)
+            print(f"reformatted {name}", file=sys.stderr)
+    if args.check and unformatted:
+        return 1
+    return 0

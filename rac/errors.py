@@ -1,0 +1,121 @@
+"""Diagnostics: one small hierarchy, a stable code per error, gcc-style rendering.
+
+Every problem the compiler reports is a :class:`Diagnostic` with a stable code
+(``RAC012``) and, where it came from source, a :class:`Span`.  Passes collect
+diagnostics instead of raising on the first one, so a user sees every error of
+a file in one run; :class:`RacError` carries them out to the CLI.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from enum import Enum
+
+
+@dataclass(frozen=True, slots=True)
+class Span:
+    """A region of a source file; lines and columns are 1-based, end exclusive."""
+
+    file: str
+    line: int
+    column: int
+    end_line: int
+    end_column: int
+
+
+class Severity(str, Enum):
+    ERROR = "error"
+    WARNING = "warning"
+
+
+@dataclass(frozen=True, slots=True)
+class Diagnostic:
+    code: str
+    message: str
+    span: Span | None = None
+    severity: Severity = Severity.ERROR
+    hint: str | None = None
+
+    @property
+    def is_error(self) -> bool:
+        return self.severity is Severity.ERROR
+
+    def render(self, source: str | None = None) -> str:
+        """``FILE:LINE:COL: error[RAC012]: message`` plus the source line and carets."""
+        head = f"{self.severity.value}[{self.code}]: {self.message}"
+        if self.span is None:
+            lines = [head]
+        else:
+            lines = [f"{self.span.file}:{self.span.line}:{self.span.column}: {head}"]
+            if source is not None:
+                lines.extend(_caret_lines(source, self.span))
+        if self.hint:
+            lines.append(f"  = help: {self.hint}")
+        return "\n".join(lines)
+
+
+def _caret_lines(source: str, span: Span) -> list[str]:
+    text = source.splitlines()
+    if not 1 <= span.line <= len(text):
+        return []
+    line = text[span.line - 1].expandtabs(1)
+    if span.end_line == span.line:
+        width = max(1, span.end_column - span.column)
+    else:
+        width = max(1, len(line) - span.column + 1)
+    gutter = f"{span.line:>4} | "
+    return [gutter + line, " " * (len(gutter) + span.column - 1) + "^" * width]
+
+
+class RacError(Exception):
+    """Raised with every diagnostic of a failed step; the CLI renders and exits 1."""
+
+    def __init__(self, diagnostics: Sequence[Diagnostic], source: str | None = None) -> None:
+        self.diagnostics = tuple(diagnostics)
+        self.source = source
+        super().__init__("\n".join(d.render() for d in self.diagnostics))
+
+    def render(self) -> str:
+        return "\n".join(d.render(self.source) for d in self.diagnostics)
+
+
+def did_you_mean(name: str, candidates: Iterable[str]) -> str | None:
+    """A hint naming the closest candidate, or None when nothing is close."""
+    close = difflib.get_close_matches(name, sorted(set(candidates)), n=1, cutoff=0.6)
+    return f"did you mean '{close[0]}'?" if close else None
+
+
+# The stable codes.  Never renumber: users grep for them and tests pin them.
+CODES: dict[str, str] = {
+    "RAC001": "syntax error",
+    "RAC002": "unexpected end of file",
+    "RAC003": "invalid character",
+    "RAC004": "cannot read the model file",
+    "RAC005": "invalid JSON interchange",
+    "RAC006": "invalid model-server YAML",
+    "RAC010": "duplicate name",
+    "RAC011": "undefined hardware",
+    "RAC012": "undefined topic",
+    "RAC013": "undefined node",
+    "RAC014": "undefined field",
+    "RAC015": "duplicate field",
+    "RAC020": "affected_by topic not subscribed",
+    "RAC021": "topic in its own affected_by (Proposition 4.1)",
+    "RAC022": "pair names the same field twice",
+    "RAC023": "related or interval topic has no publisher",
+    "RAC024": "switchable hardware without a channel",
+    "RAC025": "two switchable devices on one channel",
+    "RAC026": "channel given for non-switchable hardware",
+    "RAC027": "names mangle to the same atom",
+    "RAC028": "invalid ROS name",
+    "RAC029": "invalid value",
+    "RAC030": "duplicate statement",
+    "RAC040": "unknown atom in an observation",
+    "RAC041": "malformed literal",
+    "RAC100": "subscribed topic has no publisher",
+    "RAC101": "hardware driven by no node",
+    "RAC102": "node with no topics",
+    "RAC103": "declared topic used by no node",
+}

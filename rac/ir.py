@@ -1,0 +1,154 @@
+"""The typed IR of a Robot Architecture Model (RAM, §4.2.1, contract §1).
+
+Frozen, slotted dataclasses with tuples only, so passes cannot mutate what
+they are given and models can be hashed and compared.  Every node that came
+from source carries a :class:`~rac.errors.Span`; models read from JSON carry
+``None``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from rac.errors import Span
+
+
+@dataclass(frozen=True, slots=True)
+class Name:
+    """A name as written at one place in the source (a declaration or a reference)."""
+
+    value: str
+    span: Span | None = field(default=None, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class Hardware:
+    name: Name
+    switchable: bool = False
+    channel: int | None = None
+    comments: tuple[str, ...] = field(default=(), compare=False)
+    span: Span | None = field(default=None, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class Topic:
+    name: Name
+    msg_type: str | None = None
+    fields: tuple[Name, ...] = ()
+    rate_hz: float | None = None
+    rate_tolerance_hz: float | None = None
+    window_s: float | None = None
+    mismatch_threshold: int | None = None
+    comments: tuple[str, ...] = field(default=(), compare=False)
+    span: Span | None = field(default=None, compare=False)
+
+    @property
+    def regular(self) -> bool:
+        """A topic with a rate gets a frequency observer (GObs)."""
+        return self.rate_hz is not None
+
+
+@dataclass(frozen=True, slots=True)
+class Publication:
+    """One output topic of a node and the inputs that affect it (δ_aff)."""
+
+    topic: Name
+    affected_by: tuple[Name, ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class Limits:
+    cpu: float | None = None  # percent of one core
+    mem: int | None = None  # bytes
+    span: Span | None = field(default=None, compare=False)
+
+    @property
+    def declared(self) -> tuple[str, ...]:
+        return tuple(p for p, v in (("cpu", self.cpu), ("mem", self.mem)) if v is not None)
+
+
+@dataclass(frozen=True, slots=True)
+class Node:
+    name: Name
+    drives: tuple[Name, ...] = ()
+    subscribes: tuple[Name, ...] = ()
+    publishes: tuple[Publication, ...] = ()
+    limits: Limits = Limits()
+    diagnostics: tuple[Name, ...] = ()
+    comments: tuple[str, ...] = field(default=(), compare=False)
+    inner_comments: tuple[str, ...] = field(default=(), compare=False)
+    span: Span | None = field(default=None, compare=False)
+
+    @property
+    def published_topics(self) -> tuple[str, ...]:
+        return tuple(p.topic.value for p in self.publishes)
+
+
+@dataclass(frozen=True, slots=True)
+class FieldRef:
+    """``TOPIC.FIELD_PATH``; ROS names hold no dots, so the first dot splits them."""
+
+    topic: str
+    field: str
+    span: Span | None = field(default=None, compare=False)
+
+    @property
+    def text(self) -> str:
+        return f"{self.topic}.{self.field}"
+
+    @staticmethod
+    def parse(text: str, span: Span | None = None) -> FieldRef:
+        topic, _, path = text.partition(".")
+        return FieldRef(topic, path, span)
+
+
+@dataclass(frozen=True, slots=True)
+class Related:
+    """δ_rel: two fields whose qualitative trends match (BiQObs)."""
+
+    a: FieldRef
+    b: FieldRef
+    comments: tuple[str, ...] = field(default=(), compare=False)
+    span: Span | None = field(default=None, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class Interval:
+    """Two fields whose difference stays within ``max_diff`` (IObs)."""
+
+    a: FieldRef
+    b: FieldRef
+    max_diff: float
+    comments: tuple[str, ...] = field(default=(), compare=False)
+    span: Span | None = field(default=None, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class Model:
+    name: Name
+    hardware: tuple[Hardware, ...] = ()
+    topics: tuple[Topic, ...] = ()
+    nodes: tuple[Node, ...] = ()
+    related: tuple[Related, ...] = ()
+    intervals: tuple[Interval, ...] = ()
+    comments: tuple[str, ...] = field(default=(), compare=False)  # before the `robot` header
+    trailing_comments: tuple[str, ...] = field(default=(), compare=False)  # after the last declaration
+    path: str = field(default="<model>", compare=False)
+    source: str | None = field(default=None, compare=False, repr=False)
+
+    def hardware_by_name(self) -> dict[str, Hardware]:
+        return {h.name.value: h for h in self.hardware}
+
+    def topic_by_name(self) -> dict[str, Topic]:
+        return {t.name.value: t for t in self.topics}
+
+    def node_by_name(self) -> dict[str, Node]:
+        return {n.name.value: n for n in self.nodes}
+
+    def publishers(self) -> dict[str, tuple[str, ...]]:
+        """Topic name -> names of the nodes publishing it, in declaration order."""
+        out: dict[str, list[str]] = {}
+        for node in self.nodes:
+            for topic in node.published_topics:
+                out.setdefault(topic, []).append(node.name.value)
+        return {t: tuple(ns) for t, ns in out.items()}

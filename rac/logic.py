@@ -1,0 +1,85 @@
+"""Atoms and Horn clauses shared by the compiler, the model server file and the engine."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+AB = "AB"
+NAB = "NAB"
+NEG_PREFIX = "not_"
+FALSE = "false"
+
+
+def mangle(name: str) -> str:
+    """Turn a model name into an atom argument (contract §2).
+
+    ``/robot1/scan`` -> ``robot1_scan``; ``twist.twist.angular.z`` -> ``twist_twist_angular_z``.
+    """
+    return re.sub(r"[/.\-]", "_", name.removeprefix("/"))
+
+
+@dataclass(frozen=True, slots=True, order=True)
+class Atom:
+    predicate: str
+    args: tuple[str, ...] = ()
+
+    def __str__(self) -> str:
+        if not self.args:
+            return self.predicate
+        return f"{self.predicate}({','.join(self.args)})"
+
+
+@dataclass(frozen=True, slots=True)
+class Clause:
+    """``body₁, body₂, … -> head``; an empty body is a fact, head ``false`` a constraint."""
+
+    body: tuple[Atom, ...]
+    head: Atom
+
+    def __str__(self) -> str:
+        if not self.body:
+            return f"-> {self.head}"
+        return f"{', '.join(str(a) for a in self.body)} -> {self.head}"
+
+
+_ATOM = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\(\s*([^()]*?)\s*\))?\s*$")
+
+
+def parse_atom(text: str) -> Atom:
+    """Parse ``ok(pose)``, ``ok(n, cpu)`` or a bare proposition such as ``false``."""
+    match = _ATOM.match(text)
+    if match is None:
+        raise ValueError(f"not an atom: {text!r}")
+    pred, args = match.group(1), match.group(2)
+    if args is None:
+        return Atom(pred)
+    parts = tuple(a.strip() for a in args.split(","))
+    if any(not re.fullmatch(r"[A-Za-z0-9_]+", p) for p in parts):
+        raise ValueError(f"not an atom: {text!r}")
+    return Atom(pred, parts)
+
+
+def split_body(text: str) -> list[str]:
+    """Split ``NAB(a), ok(b,c)`` at the commas between atoms, not inside them."""
+    parts: list[str] = []
+    depth, start = 0, 0
+    for i, ch in enumerate(text):
+        if ch == "(":
+            depth += 1
+        elif ch == ")":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            parts.append(text[start:i])
+            start = i + 1
+    parts.append(text[start:])
+    return [p.strip() for p in parts if p.strip()]
+
+
+def parse_clause(text: str) -> Clause:
+    """Parse ``A, B -> C`` (the model server's rule syntax)."""
+    body_text, arrow, head_text = text.partition("->")
+    if not arrow:
+        raise ValueError(f"a rule needs '->': {text!r}")
+    body = tuple(parse_atom(a) for a in split_body(body_text))
+    return Clause(body, parse_atom(head_text))

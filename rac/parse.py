@@ -1,0 +1,352 @@
+"""Parse ``.ram`` text into the IR: Lark LALR with positions, then a Transformer.
+
+Parse failures become named diagnostics that say, in words, what was expected.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import replace
+from importlib import resources
+from typing import Any
+
+from lark import Lark, Token, Transformer, Tree, v_args
+from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+from lark.tree import Meta
+
+from rac.errors import Diagnostic, RacError, Span
+from rac.ir import FieldRef, Hardware, Interval, Limits, Model, Name, Node, Publication, Related, Topic
+
+MEM_UNITS = {
+    "B": 1,
+    "kB": 1000,
+    "KB": 1000,
+    "MB": 1000**2,
+    "GB": 1000**3,
+    "KiB": 1024,
+    "MiB": 1024**2,
+    "GiB": 1024**3,
+}
+
+# What each terminal means to a user, for "expected ..." messages.
+_TERMINAL_WORDS = {
+    "NAME": "a name",
+    "FIELD_REF": "a field reference such as /imu_data.yaw",
+    "MSG_TYPE": "a message type such as nav_msgs/Odometry",
+    "FIELD": "a field name",
+    "NUMBER": "a number",
+    "INT": "a whole number",
+    "PLUS_MINUS": "'+-'",
+    "TIME_UNIT": "a time unit (s, ms)",
+    "MEM_UNIT": "a memory unit (B, kB, MB, GB, KiB, MiB, GiB)",
+    "LBRACE": "'{'",
+    "RBRACE": "'}'",
+    "COMMA": "','",
+    "SEMICOLON": "';'",
+    "COLON": "':'",
+    "AT": "'@'",
+    "PERCENT": "'%'",
+    "TILDE": "'~'",
+    "$END": "the end of the file",
+}
+
+
+def _span(file: str, item: Token | Meta) -> Span:
+    assert item.line is not None and item.column is not None
+    end_line = item.end_line if item.end_line is not None else item.line
+    end_col = item.end_column if item.end_column is not None else item.column + 1
+    return Span(file, item.line, item.column, end_line, end_col)
+
+
+def _words(expected: set[str]) -> str:
+    names = sorted({_TERMINAL_WORDS.get(t, _keyword(t)) for t in expected})
+    if len(names) == 1:
+        return names[0]
+    return ", ".join(names[:-1]) + " or " + names[-1]
+
+
+def _keyword(terminal: str) -> str:
+    # Anonymous keyword terminals are named after their text, e.g. PUBLISHES.
+    return f"'{terminal.lower()}'"
+
+
+def _parse_error(err: UnexpectedInput, path: str, text: str) -> Diagnostic:
+    line, column = max(err.line, 1), max(err.column, 1)
+    if isinstance(err, UnexpectedToken) and err.token.type == "$END":
+        line, column = _end_position(text)
+        span = Span(path, line, column, line, column + 1)
+        return Diagnostic("RAC002", f"unexpected end of file; expected {_words(err.expected)}", span)
+    if isinstance(err, UnexpectedToken):
+        token = err.token
+        span = _span(path, token)
+        return Diagnostic("RAC001", f"unexpected '{token}'; expected {_words(err.expected)}", span)
+    if isinstance(err, UnexpectedCharacters):
+        span = Span(path, line, column, line, column + 1)
+        char = text[err.pos_in_stream] if err.pos_in_stream < len(text) else "?"
+        allowed = err.allowed or set()
+        hint = f"expected {_words(allowed)}" if allowed else None
+        return Diagnostic("RAC003", f"unexpected character {char!r}", span, hint=hint)
+    if isinstance(err, UnexpectedEOF):
+        line, column = _end_position(text)
+        span = Span(path, line, column, line, column + 1)
+        return Diagnostic("RAC002", f"unexpected end of file; expected {_words(set(err.expected))}", span)
+    span = Span(path, line, column, line, column + 1)
+    return Diagnostic("RAC001", "syntax error", span)
+
+
+def _end_position(text: str) -> tuple[int, int]:
+    lines = text.rstrip().splitlines() or [""]
+    return len(lines), len(lines[-1]) + 1
+
+
+def parse_ram(text: str, path: str = "<string>") -> Model:
+    """Parse a ``.ram`` source into a :class:`Model` (not yet validated)."""
+    comments: list[Token] = []
+    try:
+        tree = _parse_with_comments(text, comments)
+    except UnexpectedInput as err:
+        raise RacError([_parse_error(err, path, text)], text) from None
+    model = _Lower(path).transform(tree)
+    assert isinstance(model, Model)
+    model = _attach_comments(model, comments)
+    return replace(model, source=text)
+
+
+def _parse_with_comments(text: str, sink: list[Token]) -> Tree[Token]:
+    # A fresh parser per call would be slow; lexer callbacks are bound per parser,
+    # so route comments through a module-level list swapped in for this call.
+    _COMMENT_SINK.append(sink)
+    try:
+        return _commented_parser().parse(text)
+    finally:
+        _COMMENT_SINK.pop()
+
+
+_COMMENT_SINK: list[list[Token]] = []
+
+
+def _collect_comment(token: Token) -> Token:
+    if _COMMENT_SINK:
+        _COMMENT_SINK[-1].append(token)
+    return token
+
+
+@functools.cache
+def _commented_parser() -> Lark:
+    grammar = resources.files("rac.grammar").joinpath("ram.lark").read_text(encoding="utf-8")
+    return Lark(
+        grammar,
+        parser="lalr",
+        propagate_positions=True,
+        maybe_placeholders=True,
+        lexer_callbacks={"COMMENT": _collect_comment},
+    )
+
+
+def _number(token: Token) -> float:
+    return float(token)
+
+
+@v_args(meta=True)
+class _Lower(Transformer[Token, Any]):
+    """Lower the parse tree to IR dataclasses, keeping a span on every node."""
+
+    def __init__(self, path: str) -> None:
+        super().__init__()
+        self.path = path
+
+    def _name(self, token: Token) -> Name:
+        return Name(str(token), _span(self.path, token))
+
+    def start(self, meta: Meta, children: list[Any]) -> Model:
+        header, *decls = children
+        return Model(
+            name=header,
+            hardware=tuple(d for d in decls if isinstance(d, Hardware)),
+            topics=tuple(d for d in decls if isinstance(d, Topic)),
+            nodes=tuple(d for d in decls if isinstance(d, Node)),
+            related=tuple(d for d in decls if isinstance(d, Related)),
+            intervals=tuple(d for d in decls if isinstance(d, Interval)),
+            path=self.path,
+        )
+
+    def header(self, meta: Meta, children: list[Token]) -> Name:
+        return self._name(children[0])
+
+    # hardware ------------------------------------------------------------
+    def hardware(self, meta: Meta, children: list[Any]) -> Hardware:
+        name, *options = children
+        switchable = any(o == ("switchable", None) for o in options)
+        channels = [o[1] for o in options if o[0] == "channel"]
+        return Hardware(
+            self._name(name),
+            switchable=switchable,
+            channel=channels[-1] if channels else None,
+            span=_span(self.path, meta),
+        )
+
+    def switchable(self, meta: Meta, children: list[Any]) -> tuple[str, None]:
+        return ("switchable", None)
+
+    def channel(self, meta: Meta, children: list[Token]) -> tuple[str, int]:
+        return ("channel", int(children[0]))
+
+    # topics --------------------------------------------------------------
+    def topic(self, meta: Meta, children: list[Any]) -> Topic:
+        name, msg_type, fields, rate = children
+        options: dict[str, Any] = dict(rate[1]) if rate is not None else {}
+        return Topic(
+            self._name(name),
+            msg_type=msg_type,
+            fields=tuple(fields or ()),
+            rate_hz=rate[0] if rate is not None else None,
+            rate_tolerance_hz=options.get("tolerance"),
+            window_s=options.get("window"),
+            mismatch_threshold=options.get("mismatch"),
+            span=_span(self.path, meta),
+        )
+
+    def msg_type(self, meta: Meta, children: list[Token]) -> str:
+        return str(children[0])
+
+    def field_block(self, meta: Meta, children: list[Token | None]) -> tuple[Name, ...]:
+        return tuple(self._name(t) for t in children if t is not None)
+
+    def rate(self, meta: Meta, children: list[Any]) -> tuple[float, tuple[tuple[str, float], ...]]:
+        hz, *options = children
+        return (_number(hz), tuple(options))
+
+    def tolerance(self, meta: Meta, children: list[Token]) -> tuple[str, float]:
+        return ("tolerance", _number(children[1]))
+
+    def window(self, meta: Meta, children: list[Token]) -> tuple[str, float]:
+        value, unit = children
+        return ("window", _number(value) / (1000.0 if unit == "ms" else 1.0))
+
+    def mismatch(self, meta: Meta, children: list[Token]) -> tuple[str, int]:
+        return ("mismatch", int(children[0]))
+
+    # nodes ---------------------------------------------------------------
+    def node(self, meta: Meta, children: list[Any]) -> Node:
+        name, drives, body = children
+        stmts: list[tuple[str, Any]] = list(body or ())
+        subscribes = tuple(n for kind, v in stmts if kind == "subscribes" for n in v)
+        publishes = tuple(p for kind, v in stmts if kind == "publishes" for p in v)
+        diagnostics = tuple(n for kind, v in stmts if kind == "reports" for n in v)
+        limits = Limits()
+        for kind, value in stmts:
+            if kind == "limits":
+                limits = Limits(
+                    cpu=value.cpu if value.cpu is not None else limits.cpu,
+                    mem=value.mem if value.mem is not None else limits.mem,
+                    span=value.span,
+                )
+        return Node(
+            self._name(name),
+            drives=tuple(drives or ()),
+            subscribes=subscribes,
+            publishes=publishes,
+            limits=limits,
+            diagnostics=diagnostics,
+            span=_span(self.path, meta),
+        )
+
+    def drives(self, meta: Meta, children: list[tuple[Name, ...]]) -> tuple[Name, ...]:
+        return children[0]
+
+    def node_body(self, meta: Meta, children: list[Any]) -> tuple[Any, ...]:
+        return tuple(children)
+
+    def name_list(self, meta: Meta, children: list[Token]) -> tuple[Name, ...]:
+        return tuple(self._name(t) for t in children)
+
+    def subscribes(self, meta: Meta, children: list[Any]) -> tuple[str, Any]:
+        return ("subscribes", children[0])
+
+    def publishes(self, meta: Meta, children: list[Any]) -> tuple[str, Any]:
+        return ("publishes", tuple(Publication(n) for n in children[0]))
+
+    def publishes_from(self, meta: Meta, children: list[Any]) -> tuple[str, Any]:
+        topic, inputs = children
+        return ("publishes", (Publication(self._name(topic), inputs),))
+
+    def reports(self, meta: Meta, children: list[Any]) -> tuple[str, Any]:
+        return ("reports", children[0])
+
+    def limits(self, meta: Meta, children: list[Any]) -> tuple[str, Any]:
+        cpu = next((v for k, v in children if k == "cpu"), None)
+        mem = next((v for k, v in children if k == "mem"), None)
+        return ("limits", Limits(cpu=cpu, mem=mem, span=_span(self.path, meta)))
+
+    def cpu_limit(self, meta: Meta, children: list[Token]) -> tuple[str, float]:
+        return ("cpu", _number(children[0]))
+
+    def mem_limit(self, meta: Meta, children: list[Token]) -> tuple[str, int]:
+        value, unit = children
+        return ("mem", round(_number(value) * MEM_UNITS[str(unit)]))
+
+    # relations -----------------------------------------------------------
+    def _field_ref(self, token: Token) -> FieldRef:
+        return FieldRef.parse(str(token), _span(self.path, token))
+
+    def relate(self, meta: Meta, children: list[Token]) -> Related:
+        a, b = children
+        return Related(self._field_ref(a), self._field_ref(b), span=_span(self.path, meta))
+
+    def interval(self, meta: Meta, children: list[Token]) -> Interval:
+        a, b, diff = children
+        return Interval(
+            self._field_ref(a), self._field_ref(b), _number(diff), span=_span(self.path, meta)
+        )
+
+
+def _attach_comments(model: Model, comments: list[Token]) -> Model:
+    """Hang each comment on the declaration it precedes (or sits inside)."""
+    if not comments:
+        return model
+    decls: list[Any] = sorted(
+        [*model.hardware, *model.topics, *model.nodes, *model.related, *model.intervals],
+        key=lambda d: (d.span.line, d.span.column),
+    )
+    header_line = model.name.span.line if model.name.span else 1
+    pending = sorted(comments, key=lambda t: (t.line or 0, t.column or 0))
+    leading: dict[int, list[str]] = {}
+    inner: dict[int, list[str]] = {}
+    head: list[str] = []
+    tail: list[str] = []
+    for token in pending:
+        line = token.line or 0
+        body = str(token)[1:].rstrip()
+        owner = next((i for i, d in enumerate(decls) if line <= d.span.end_line), None)
+        if owner is None:
+            tail.append(body)
+        elif line < header_line:
+            head.append(body)
+        elif isinstance(decls[owner], Node) and line > decls[owner].span.line:
+            inner.setdefault(owner, []).append(body)
+        else:
+            leading.setdefault(owner, []).append(body)
+    if not decls:
+        head = [*head, *tail] if not head else head
+    new = {
+        id(d): replace(
+            d,
+            comments=tuple(leading.get(i, ())),
+            **({"inner_comments": tuple(inner.get(i, ()))} if isinstance(d, Node) else {}),
+        )
+        for i, d in enumerate(decls)
+    }
+
+    def swap(items: tuple[Any, ...]) -> tuple[Any, ...]:
+        return tuple(new[id(x)] for x in items)
+
+    return replace(
+        model,
+        hardware=swap(model.hardware),
+        topics=swap(model.topics),
+        nodes=swap(model.nodes),
+        related=swap(model.related),
+        intervals=swap(model.intervals),
+        comments=tuple(head),
+        trailing_comments=tuple(tail) if decls else (),
+    )

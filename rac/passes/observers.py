@@ -1,0 +1,121 @@
+"""derive_observers: the observers model (§5.2, §6.2.2, contract §2).
+
+One :class:`ObserverSpec` per observer instance, with the parameters the
+dissertation's observer nodes take (names as in §6.2.2's launch file).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from rac.ir import Model, Topic
+from rac.logic import Atom, mangle
+from rac.passes.rbm import field_atom, ok
+
+DEFAULT_WINDOW_OCCURRENCES = 10  # ω = c / freq with c = 10 (Equation 5.3)
+DEFAULT_MISMATCH_THRESHOLD = 5
+DEFAULT_RATE_TOLERANCE = 0.1  # ±10 % of the rate when the model gives none
+BOARD_TOPIC = "/board_measurements"
+DIAGNOSTICS_TOPIC = "/diagnostics"
+
+ParamValue = str | int | float
+
+
+@dataclass(frozen=True, slots=True)
+class ObserverSpec:
+    kind: str  # NObs, GObs, PObs, DObs, HObs, BiQObs, IObs
+    name: str  # a valid ROS node name, unique in the model
+    params: tuple[tuple[str, ParamValue], ...]
+    atoms: tuple[Atom, ...]  # what it reports (each also negated)
+
+
+def gobs_params(topic: Topic) -> tuple[tuple[str, ParamValue], ...]:
+    """δ = 1/rate, the interval deviation from the rate tolerance, ω, θ."""
+    assert topic.rate_hz is not None
+    rate = topic.rate_hz
+    tolerance = topic.rate_tolerance_hz
+    if tolerance is None:
+        tolerance = DEFAULT_RATE_TOLERANCE * rate
+    delta = 1.0 / rate
+    # The slower edge of the band is the wider one in interval terms.
+    dev = 1.0 / (rate - tolerance) - delta
+    window = topic.window_s if topic.window_s is not None else DEFAULT_WINDOW_OCCURRENCES * delta
+    mismatch = topic.mismatch_threshold
+    if mismatch is None:
+        mismatch = DEFAULT_MISMATCH_THRESHOLD
+    return (
+        ("topic", topic.name.value),
+        ("delta", _round(delta)),
+        ("dev", _round(dev)),
+        ("ws", _round(window)),
+        ("mismatch_th", mismatch),
+    )
+
+
+def _round(value: float) -> float:
+    # Twelve significant digits: exact enough, and free of float noise in the output.
+    return float(f"{value:.12g}")
+
+
+def derive_observers(model: Model) -> tuple[ObserverSpec, ...]:
+    """Every observer instance the model calls for, grouped by kind."""
+    specs: list[ObserverSpec] = []
+    for node in model.nodes:
+        n = mangle(node.name.value)
+        specs.append(
+            ObserverSpec("NObs", f"{n}_nobs", (("node", node.name.value),), (Atom("running", (n,)),))
+        )
+    for topic in model.topics:
+        if topic.regular:
+            t = mangle(topic.name.value)
+            specs.append(ObserverSpec("GObs", f"{t}_gobs", gobs_params(topic), (ok(topic.name.value),)))
+    for node in model.nodes:
+        n = mangle(node.name.value)
+        for prop, value in (("cpu", node.limits.cpu), ("mem", node.limits.mem)):
+            if value is None:
+                continue
+            params: tuple[tuple[str, ParamValue], ...] = (
+                ("node", node.name.value),
+                ("property", prop),
+                ("max_val", value),
+                ("mismatch_th", DEFAULT_MISMATCH_THRESHOLD),
+            )
+            specs.append(ObserverSpec("PObs", f"{n}_{prop}_pobs", params, (ok(node.name.value, prop),)))
+    for node in model.nodes:
+        for device in node.diagnostics:
+            d = mangle(device.value)
+            params = (("topic", DIAGNOSTICS_TOPIC), ("node", node.name.value), ("device", device.value))
+            specs.append(ObserverSpec("DObs", f"{d}_dobs", params, (ok(device.value),)))
+    switchable = [h for h in model.hardware if h.switchable]
+    if switchable:
+        channels = ",".join(f"{h.name.value}:{h.channel}" for h in switchable)
+        atoms = tuple(Atom("on", (mangle(h.name.value),)) for h in switchable)
+        params = (("topic", BOARD_TOPIC), ("channels", channels))
+        specs.append(ObserverSpec("HObs", "board_hobs", params, atoms))
+    for i, rel in enumerate(model.related, start=1):
+        params = _pair_params(rel.a.topic, rel.a.field, rel.b.topic, rel.b.field)
+        atom = field_atom("matched", rel.a, rel.b)
+        specs.append(ObserverSpec("BiQObs", f"biq{i}_biqobs", params, (atom,)))
+    for i, iv in enumerate(model.intervals, start=1):
+        params = (
+            *_pair_params(iv.a.topic, iv.a.field, iv.b.topic, iv.b.field),
+            ("max_diff", iv.max_diff),
+        )
+        atom = field_atom("equal", iv.a, iv.b)
+        specs.append(ObserverSpec("IObs", f"interval{i}_iobs", params, (atom,)))
+    return tuple(specs)
+
+
+def _pair_params(t1: str, f1: str, t2: str, f2: str) -> tuple[tuple[str, ParamValue], ...]:
+    return (
+        ("topic1", t1),
+        ("field1", f1),
+        ("topic2", t2),
+        ("field2", f2),
+        ("mismatch_th", DEFAULT_MISMATCH_THRESHOLD),
+    )
+
+
+def observable_atoms(observers: tuple[ObserverSpec, ...]) -> tuple[Atom, ...]:
+    """``props`` of the model server file: every atom an observer can report."""
+    return tuple(dict.fromkeys(a for o in observers for a in o.atoms))

@@ -1,0 +1,280 @@
+"""Semantic validation of a RAM: every rule is a small function in ``RULES``.
+
+Each rule reads the model and yields diagnostics; ``validate`` runs them all so
+a user sees every problem of a file in one run.  Errors stop compilation,
+warnings do not.
+"""
+
+from __future__ import annotations
+
+import re
+from collections import defaultdict
+from collections.abc import Callable, Iterable, Iterator
+
+from rac.errors import Diagnostic, Severity, Span, did_you_mean
+from rac.ir import FieldRef, Model, Name
+from rac.logic import mangle
+
+Rule = Callable[[Model], Iterable[Diagnostic]]
+
+# ROS graph resource names (ROS 1 and 2): segments start with a letter.
+_ROS_NAME = re.compile(r"/?[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*")
+_DEVICE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_\-]*")
+
+
+def _error(code: str, message: str, span: Span | None, hint: str | None = None) -> Diagnostic:
+    return Diagnostic(code, message, span, hint=hint)
+
+
+def _warning(code: str, message: str, span: Span | None, hint: str | None = None) -> Diagnostic:
+    return Diagnostic(code, message, span, Severity.WARNING, hint)
+
+
+def check_names(model: Model) -> Iterator[Diagnostic]:
+    """Node and topic names are ROS names; hardware and the robot are identifiers."""
+    for name, kind in [
+        *((n.name, "node") for n in model.nodes),
+        *((t.name, "topic") for t in model.topics),
+    ]:
+        if not _ROS_NAME.fullmatch(name.value):
+            hint = "a ROS name is segments of letters, digits and '_' separated by '/', "
+            hint += "each starting with a letter; private '~' names must be written in full"
+            yield _error("RAC028", f"invalid ROS {kind} name '{name.value}'", name.span, hint)
+    for name, kind in [(model.name, "robot"), *((h.name, "hardware") for h in model.hardware)]:
+        if not _DEVICE_NAME.fullmatch(name.value):
+            hint = "use letters, digits, '_' and '-', starting with a letter or '_'"
+            yield _error("RAC028", f"invalid {kind} name '{name.value}'", name.span, hint)
+
+
+def check_duplicates(model: Model) -> Iterator[Diagnostic]:
+    """Names are declared once: components (nodes, hardware) share one namespace."""
+    seen: dict[str, tuple[str, Name]] = {}
+    for kind, name in [
+        *(("hardware", h.name) for h in model.hardware),
+        *(("node", n.name) for n in model.nodes),
+    ]:
+        if name.value in seen:
+            first_kind, first = seen[name.value]
+            where = f" (first declared as {first_kind} at line {first.span.line})" if first.span else ""
+            yield _error("RAC010", f"duplicate name '{name.value}'{where}", name.span)
+        else:
+            seen[name.value] = (kind, name)
+    topics: dict[str, Name] = {}
+    for topic in model.topics:
+        if topic.name.value in topics:
+            yield _error("RAC010", f"duplicate topic '{topic.name.value}'", topic.name.span)
+        topics.setdefault(topic.name.value, topic.name)
+        fields: set[str] = set()
+        for f in topic.fields:
+            if f.value in fields:
+                msg = f"duplicate field '{f.value}' in topic '{topic.name.value}'"
+                yield _error("RAC015", msg, f.span)
+            fields.add(f.value)
+
+
+def check_references(model: Model) -> Iterator[Diagnostic]:
+    """Every hardware and topic a node names is declared."""
+    hardware = model.hardware_by_name()
+    topics = model.topic_by_name()
+    for node in model.nodes:
+        for hw in node.drives:
+            if hw.value not in hardware:
+                msg = f"node '{node.name.value}' drives undefined hardware '{hw.value}'"
+                yield _error("RAC011", msg, hw.span, did_you_mean(hw.value, hardware))
+        used = [
+            *((t, "subscribes") for t in node.subscribes),
+            *((p.topic, "publishes") for p in node.publishes),
+            *((a, "names as input") for p in node.publishes for a in p.affected_by),
+        ]
+        for ref, verb in used:
+            if ref.value not in topics:
+                msg = f"node '{node.name.value}' {verb} undefined topic '{ref.value}'"
+                yield _error("RAC012", msg, ref.span, did_you_mean(ref.value, topics))
+
+
+def check_duplicate_statements(model: Model) -> Iterator[Diagnostic]:
+    """A node lists a hardware or topic once per role."""
+    for node in model.nodes:
+        groups = [
+            ("drives", node.drives),
+            ("subscribes", node.subscribes),
+            ("publishes", tuple(p.topic for p in node.publishes)),
+            ("reports", node.diagnostics),
+        ]
+        for verb, names in groups:
+            seen: set[str] = set()
+            for ref in names:
+                if ref.value in seen:
+                    msg = f"node '{node.name.value}' {verb} '{ref.value}' twice"
+                    yield _error("RAC030", msg, ref.span)
+                seen.add(ref.value)
+    pairs: set[frozenset[str]] = set()
+    for rel in model.related:
+        key = frozenset((rel.a.text, rel.b.text))
+        if key in pairs:
+            yield _error("RAC030", f"fields {rel.a.text} and {rel.b.text} related twice", rel.span)
+        pairs.add(key)
+
+
+def check_affected_by(model: Model) -> Iterator[Diagnostic]:
+    """δ_aff(n, τ) ⊆ δ_in(n), and τ ∉ δ_aff(n, τ) (Proposition 4.1)."""
+    for node in model.nodes:
+        inputs = {t.value for t in node.subscribes}
+        for pub in node.publishes:
+            for ref in pub.affected_by:
+                if ref.value == pub.topic.value:
+                    msg = f"topic '{ref.value}' cannot be among its own inputs (Proposition 4.1)"
+                    yield _error("RAC021", msg, ref.span, "remove it from the 'from' list")
+                elif ref.value not in inputs:
+                    msg = (
+                        f"'{pub.topic.value}' of node '{node.name.value}' depends on "
+                        f"'{ref.value}', which the node does not subscribe to"
+                    )
+                    yield _error("RAC020", msg, ref.span, f"add 'subscribes {ref.value}'")
+
+
+def _field_refs(model: Model) -> Iterator[tuple[FieldRef, FieldRef, Span | None, str]]:
+    for rel in model.related:
+        yield rel.a, rel.b, rel.span, "relate"
+    for iv in model.intervals:
+        yield iv.a, iv.b, iv.span, "interval"
+
+
+def check_field_pairs(model: Model) -> Iterator[Diagnostic]:
+    """Related and interval pairs name two distinct, declared, published fields."""
+    topics = model.topic_by_name()
+    publishers = model.publishers()
+    for a, b, span, what in _field_refs(model):
+        if a.text == b.text:
+            yield _error("RAC022", f"{what} names the field {a.text} twice", span)
+        for ref in (a, b):
+            topic = topics.get(ref.topic)
+            if topic is None:
+                msg = f"{what} names undefined topic '{ref.topic}'"
+                yield _error("RAC012", msg, ref.span, did_you_mean(ref.topic, topics))
+                continue
+            fields = [f.value for f in topic.fields]
+            if ref.field not in fields:
+                msg = f"topic '{ref.topic}' has no field '{ref.field}'"
+                hint = did_you_mean(ref.field, fields)
+                if hint is None:
+                    hint = f"declare it in the topic's field list {{ {', '.join(fields)} }}"
+                yield _error("RAC014", msg, ref.span, hint)
+            elif ref.topic not in publishers:
+                msg = f"{what} names topic '{ref.topic}', which no node publishes"
+                yield _error("RAC023", msg, ref.span)
+
+
+def check_channels(model: Model) -> Iterator[Diagnostic]:
+    """Switchable hardware sits on its own board channel (chapter 8)."""
+    owners: dict[int, str] = {}
+    for hw in model.hardware:
+        if hw.switchable and hw.channel is None:
+            hint = f"write 'hardware {hw.name.value} switchable channel N'"
+            msg = f"switchable hardware '{hw.name.value}' has no board channel"
+            yield _error("RAC024", msg, hw.span, hint)
+        if not hw.switchable and hw.channel is not None:
+            msg = f"hardware '{hw.name.value}' has a channel but is not switchable"
+            yield _error("RAC026", msg, hw.span, "add 'switchable' or drop the channel")
+        if hw.channel is not None and hw.channel < 1:
+            yield _error("RAC029", f"board channels count from 1, not {hw.channel}", hw.span)
+        if hw.switchable and hw.channel is not None:
+            if hw.channel in owners:
+                msg = f"'{hw.name.value}' and '{owners[hw.channel]}' are both on channel {hw.channel}"
+                yield _error("RAC025", msg, hw.span)
+            owners.setdefault(hw.channel, hw.name.value)
+
+
+def check_values(model: Model) -> Iterator[Diagnostic]:
+    """Rates, limits and thresholds are positive and consistent."""
+    for t in model.topics:
+        name = t.name.value
+        if t.rate_hz is not None and t.rate_hz <= 0:
+            yield _error("RAC029", f"topic '{name}': rate must be above 0 Hz", t.span)
+        if t.rate_hz is None and (t.rate_tolerance_hz, t.window_s, t.mismatch_threshold) != (
+            None,
+            None,
+            None,
+        ):
+            yield _error("RAC029", f"topic '{name}': tolerance, window and mismatch need a rate", t.span)
+        tol = t.rate_tolerance_hz
+        if tol is not None and t.rate_hz is not None and not 0 <= tol < t.rate_hz:
+            yield _error("RAC029", f"topic '{name}': tolerance must be in [0, rate)", t.span)
+        if t.window_s is not None and t.window_s <= 0:
+            yield _error("RAC029", f"topic '{name}': window must be above 0 s", t.span)
+    for n in model.nodes:
+        lim = n.limits
+        if (lim.cpu is not None and lim.cpu <= 0) or (lim.mem is not None and lim.mem <= 0):
+            yield _error("RAC029", f"node '{n.name.value}': limits must be above 0", lim.span)
+    for iv in model.intervals:
+        if iv.max_diff < 0:
+            yield _error("RAC029", "an interval's 'within' bound must not be negative", iv.span)
+
+
+def check_mangling(model: Model) -> Iterator[Diagnostic]:
+    """Different names must not become the same atom argument (contract §2)."""
+    groups: list[tuple[str, list[Name]]] = [
+        ("component", [*(h.name for h in model.hardware), *(n.name for n in model.nodes)]),
+        ("topic", [t.name for t in model.topics]),
+    ]
+    # ok/1 is reported for topics (GObs) and for devices on /diagnostics (DObs).
+    hardware = {h.name.value for h in model.hardware}
+    devices = [d for n in model.nodes for d in n.diagnostics if d.value not in hardware]
+    groups.append(("topic or reported device", [*(t.name for t in model.topics), *devices]))
+    groups.extend((f"field of {t.name.value}", list(t.fields)) for t in model.topics)
+    for kind, names in groups:
+        by_atom: dict[str, list[Name]] = defaultdict(list)
+        for name in names:
+            by_atom[mangle(name.value)].append(name)
+        for atom, clash in by_atom.items():
+            distinct = sorted({n.value for n in clash})
+            if len(distinct) > 1:
+                first = next(n for n in clash if n.value != clash[-1].value)
+                msg = f"{kind} names {' and '.join(repr(d) for d in distinct)} both become '{atom}'"
+                hint = "rename one of them; '/', '.' and '-' all mangle to '_'"
+                yield _error("RAC027", msg, clash[-1].span or first.span, hint)
+
+
+def check_usage(model: Model) -> Iterator[Diagnostic]:
+    """Warnings for parts of the model that nothing connects."""
+    publishers = model.publishers()
+    topics = model.topic_by_name()
+    for node in model.nodes:
+        for ref in node.subscribes:
+            if ref.value in topics and ref.value not in publishers:
+                msg = f"topic '{ref.value}' is subscribed by '{node.name.value}' but no node publishes it"
+                yield _warning("RAC100", msg, ref.span)
+        if not node.subscribes and not node.publishes:
+            yield _warning("RAC102", f"node '{node.name.value}' has no topics", node.name.span)
+    driven = {hw.value for n in model.nodes for hw in n.drives}
+    for hw in model.hardware:
+        if hw.name.value not in driven:
+            yield _warning("RAC101", f"hardware '{hw.name.value}' is driven by no node", hw.name.span)
+    used = {t.value for n in model.nodes for t in n.subscribes} | set(publishers)
+    for t in model.topics:
+        if t.name.value not in used:
+            yield _warning("RAC103", f"topic '{t.name.value}' is used by no node", t.name.span)
+
+
+RULES: tuple[Rule, ...] = (
+    check_names,
+    check_duplicates,
+    check_references,
+    check_duplicate_statements,
+    check_affected_by,
+    check_field_pairs,
+    check_channels,
+    check_values,
+    check_mangling,
+    check_usage,
+)
+
+
+def validate(model: Model) -> tuple[Diagnostic, ...]:
+    """All diagnostics of the model, errors and warnings, in source order."""
+    found = [d for rule in RULES for d in rule(model)]
+
+    def key(d: Diagnostic) -> tuple[int, int, str]:
+        return (d.span.line, d.span.column, d.code) if d.span else (0, 0, d.code)
+
+    return tuple(sorted(dict.fromkeys(found), key=key))

@@ -1,0 +1,65 @@
+"""The visible compiler pipeline: parse -> validate -> derive (RBM, observers) -> emit.
+
+``compile_model`` runs the passes in ``PASSES`` order and verifies the IR
+between them; only the CLI touches files.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from rac.errors import Diagnostic, RacError
+from rac.ir import Model
+from rac.logic import Atom, Clause
+from rac.passes.observers import ObserverSpec, derive_observers, observable_atoms
+from rac.passes.rbm import components, derive_rbm
+from rac.passes.validate import validate
+
+
+@dataclass(frozen=True, slots=True)
+class Compiled:
+    """Everything the targets emit from, derived from one validated model."""
+
+    model: Model
+    rbm: tuple[Clause, ...]
+    observers: tuple[ObserverSpec, ...]
+    props: tuple[Atom, ...]
+    components: tuple[str, ...]
+    warnings: tuple[Diagnostic, ...] = ()
+
+
+def check_model(model: Model) -> tuple[Diagnostic, ...]:
+    """Validate; raise with every error (warnings included) when there is one."""
+    diagnostics = validate(model)
+    if any(d.is_error for d in diagnostics):
+        raise RacError(diagnostics, model.source)
+    return diagnostics
+
+
+def _verify(compiled: Compiled) -> None:
+    """IR invariants between passes: a broken pass fails loudly, not in an output file."""
+    heads = {c.head for c in compiled.rbm}
+    missing = [a for a in compiled.props if a not in heads]
+    assert not missing, f"observable atoms no clause derives: {missing}"
+    assert len(set(compiled.rbm)) == len(compiled.rbm), "duplicate clauses"
+    names = [o.name for o in compiled.observers]
+    assert len(set(names)) == len(names), "observer names collide"
+
+
+PASSES = ("validate", "derive_rbm", "derive_observers", "verify")
+
+
+def compile_model(model: Model) -> Compiled:
+    warnings = check_model(model)
+    rbm = derive_rbm(model)
+    observers = derive_observers(model)
+    compiled = Compiled(
+        model=model,
+        rbm=rbm,
+        observers=observers,
+        props=observable_atoms(observers),
+        components=components(rbm),
+        warnings=warnings,
+    )
+    _verify(compiled)
+    return compiled

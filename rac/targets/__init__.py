@@ -1,0 +1,52 @@
+"""Emitters, registered by target name: each is a pure ``(Compiled, EmitOptions) -> str``.
+
+``TARGETS`` fixes the file each target writes (contract §4) and the order the
+CLI emits them in.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from rac.pipeline import Compiled
+
+
+DEFAULT_OBSERVERS_PACKAGE = "tug_ist_diagnosis_observers"
+DEFAULT_MODEL_SERVER_PACKAGE = "tug_ist_diagnosis_model"
+
+
+@dataclass(frozen=True, slots=True)
+class EmitOptions:
+    """Knobs a user may turn from the command line."""
+
+    observers_package: str = DEFAULT_OBSERVERS_PACKAGE
+    model_server_package: str = DEFAULT_MODEL_SERVER_PACKAGE
+
+
+Emitter = Callable[[Compiled, EmitOptions], str]
+
+
+@dataclass(frozen=True, slots=True)
+class Target:
+    name: str
+    filename: str
+    emit: Emitter
+    description: str
+
+
+def _registry() -> tuple[Target, ...]:
+    from rac.targets import dot, launch_ros1, launch_ros2, model_yaml, observers_yaml, pddl_domain
+
+    return (
+        Target("model", "model.yaml", model_yaml.emit_model_yaml, "diagnosis model server file"),
+        Target("observers", "observers.yaml", observers_yaml.emit_observers_yaml, "observers model"),
+        Target("ros1", "observers.launch", launch_ros1.emit_launch_ros1, "ROS 1 launch file"),
+        Target("ros2", "observers.launch.xml", launch_ros2.emit_launch_ros2, "ROS 2 launch file"),
+        Target("pddl", "repair_domain.pddl", pddl_domain.emit_repair_domain, "PDDL repair domain"),
+        Target("dot", "architecture.dot", dot.emit_dot, "Graphviz architecture diagram"),
+    )
+
+
+def targets() -> tuple[Target, ...]:
+    return _registry()

@@ -1,0 +1,37 @@
+"""What the ROS 1 and ROS 2 launch emitters share: the observer nodes to start."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from rac.pipeline import Compiled
+from rac.targets import EmitOptions
+
+MODEL_SERVER_EXECUTABLE = "diagnosis_model_server.py"
+MODEL_SERVER_NAME = "diagnosis_model_server"
+
+
+@dataclass(frozen=True, slots=True)
+class LaunchNode:
+    package: str
+    executable: str
+    name: str
+    params: tuple[tuple[str, str], ...]
+
+
+def param_text(value: object) -> str:
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+def launch_nodes(compiled: Compiled, options: EmitOptions) -> tuple[LaunchNode, ...]:
+    return tuple(
+        LaunchNode(
+            options.observers_package,
+            f"{o.kind}.py",
+            o.name,
+            tuple((k, param_text(v)) for k, v in o.params),
+        )
+        for o in compiled.observers
+    )

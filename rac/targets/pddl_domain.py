@@ -1,0 +1,22 @@
+"""repair_domain.pddl: the typed PDDL repair domain (§7.1.2.1, contract §4).
+
+The domain is the same for every robot but for its name: which node drives
+which device is a fact of the problem (``drives``), written by the repair
+problem generator from the model.
+"""
+
+from __future__ import annotations
+
+from rac.logic import mangle
+from rac.pipeline import Compiled
+from rac.targets import EmitOptions
+from rac.targets.templating import render
+
+
+def domain_name(robot: str) -> str:
+    return f"repair_{mangle(robot).lower()}"
+
+
+def emit_repair_domain(compiled: Compiled, options: EmitOptions) -> str:
+    robot = compiled.model.name.value
+    return render("repair_domain.pddl.j2", robot=robot, domain=domain_name(robot))

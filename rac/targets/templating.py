@@ -1,0 +1,27 @@
+"""The shared Jinja2 environment: strict, deterministic, trailing newline kept."""
+
+from __future__ import annotations
+
+import functools
+from typing import Any
+from xml.sax.saxutils import quoteattr
+
+import jinja2
+
+
+@functools.cache
+def environment() -> jinja2.Environment:
+    env = jinja2.Environment(
+        loader=jinja2.PackageLoader("rac.targets", "templates"),
+        undefined=jinja2.StrictUndefined,
+        keep_trailing_newline=True,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        autoescape=False,
+    )
+    env.filters["xmlattr"] = lambda value: quoteattr(str(value))
+    return env
+
+
+def render(template: str, **context: Any) -> str:
+    return environment().get_template(template).render(**context)
