@@ -1,3 +1,3 @@
-"""racc, the robot architecture compiler: declarative models for model-based diagnosis and repair."""
+"""racc, the robot architecture compiler: declarative models for diagnosis and repair."""
 
 __version__ = "0.1.0"

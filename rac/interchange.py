@@ -6,7 +6,18 @@ import json
 from typing import Any
 
 from rac.errors import Diagnostic, RacError
-from rac.ir import FieldRef, Hardware, Interval, Limits, Model, Name, Node, Publication, Related, Topic
+from rac.ir import (
+    FieldRef,
+    Hardware,
+    Interval,
+    Limits,
+    Model,
+    Name,
+    Node,
+    Publication,
+    Related,
+    Topic,
+)
 
 FORMAT = "ram/1"
 
@@ -34,7 +45,9 @@ def model_to_json(model: Model) -> dict[str, Any]:
         "topics": [_topic(t) for t in model.topics],
         "nodes": [_node(n) for n in model.nodes],
         "related": [[r.a.text, r.b.text] for r in model.related],
-        "intervals": [{"a": i.a.text, "b": i.b.text, "max_diff": i.max_diff} for i in model.intervals],
+        "intervals": [
+            {"a": i.a.text, "b": i.b.text, "max_diff": i.max_diff} for i in model.intervals
+        ],
     }
 
 
@@ -103,7 +116,9 @@ class _Reader:
         return value
 
     def typed(self, value: Any, types: type | tuple[type, ...], what: str, where: str) -> Any:
-        if isinstance(value, bool) and bool not in (types if isinstance(types, tuple) else (types,)):
+        if isinstance(value, bool) and bool not in (
+            types if isinstance(types, tuple) else (types,)
+        ):
             self.fail(where, f"expected {what}")
             return None
         if not isinstance(value, types):
@@ -136,12 +151,14 @@ class _Reader:
     def model(self, doc: Any) -> Model:
         d = self.obj(doc, "model", "document")
         if d.get("format", FORMAT) != FORMAT:
-            self.fail("format", f"expected \"{FORMAT}\", got {d.get('format')!r}")
+            self.fail("format", f'expected "{FORMAT}", got {d.get("format")!r}')
         name = self.typed(d.get("name", ""), str, "a string", "name") or ""
         lists = {k: self.typed(d.get(k) or [], list, "a list", k) or [] for k in _KEYS["model"][1]}
         return Model(
             name=Name(name),
-            hardware=tuple(self.hardware(h, f"hardware[{i}]") for i, h in enumerate(lists["hardware"])),
+            hardware=tuple(
+                self.hardware(h, f"hardware[{i}]") for i, h in enumerate(lists["hardware"])
+            ),
             topics=tuple(self.topic(t, f"topics[{i}]") for i, t in enumerate(lists["topics"])),
             nodes=tuple(self.node(n, f"nodes[{i}]") for i, n in enumerate(lists["nodes"])),
             related=tuple(self.related(r, f"related[{i}]") for i, r in enumerate(lists["related"])),
@@ -187,7 +204,9 @@ class _Reader:
             Name(self.typed(n.get("name", ""), str, "a string", f"{where}.name") or ""),
             drives=self.names(n.get("drives"), f"{where}.drives"),
             subscribes=self.names(n.get("subscribes"), f"{where}.subscribes"),
-            publishes=tuple(self.publication(p, f"{where}.publishes[{i}]") for i, p in enumerate(pubs)),
+            publishes=tuple(
+                self.publication(p, f"{where}.publishes[{i}]") for i, p in enumerate(pubs)
+            ),
             limits=Limits(
                 cpu=self.number(limits.get("cpu"), f"{where}.limits.cpu"),
                 mem=round(mem) if mem is not None else None,
@@ -211,7 +230,9 @@ class _Reader:
         if len(pair) != 2:
             self.fail(where, "expected exactly two field references")
             pair = [*pair, "", ""][:2]
-        return Related(self.field_ref(pair[0], f"{where}[0]"), self.field_ref(pair[1], f"{where}[1]"))
+        return Related(
+            self.field_ref(pair[0], f"{where}[0]"), self.field_ref(pair[1], f"{where}[1]")
+        )
 
     def interval(self, value: Any, where: str) -> Interval:
         v = self.obj(value, "interval", where)

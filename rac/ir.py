@@ -8,7 +8,8 @@ from source carries a :class:`~rac.errors.Span`; models read from JSON carry
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import dataclasses
+from dataclasses import dataclass
 
 from rac.errors import Span
 
@@ -18,7 +19,7 @@ class Name:
     """A name as written at one place in the source (a declaration or a reference)."""
 
     value: str
-    span: Span | None = field(default=None, compare=False)
+    span: Span | None = dataclasses.field(default=None, compare=False)
 
 
 @dataclass(frozen=True, slots=True)
@@ -26,8 +27,8 @@ class Hardware:
     name: Name
     switchable: bool = False
     channel: int | None = None
-    comments: tuple[str, ...] = field(default=(), compare=False)
-    span: Span | None = field(default=None, compare=False)
+    comments: tuple[str, ...] = dataclasses.field(default=(), compare=False)
+    span: Span | None = dataclasses.field(default=None, compare=False)
 
 
 @dataclass(frozen=True, slots=True)
@@ -39,8 +40,8 @@ class Topic:
     rate_tolerance_hz: float | None = None
     window_s: float | None = None
     mismatch_threshold: int | None = None
-    comments: tuple[str, ...] = field(default=(), compare=False)
-    span: Span | None = field(default=None, compare=False)
+    comments: tuple[str, ...] = dataclasses.field(default=(), compare=False)
+    span: Span | None = dataclasses.field(default=None, compare=False)
 
     @property
     def regular(self) -> bool:
@@ -60,7 +61,7 @@ class Publication:
 class Limits:
     cpu: float | None = None  # percent of one core
     mem: int | None = None  # bytes
-    span: Span | None = field(default=None, compare=False)
+    span: Span | None = dataclasses.field(default=None, compare=False)
 
     @property
     def declared(self) -> tuple[str, ...]:
@@ -75,9 +76,9 @@ class Node:
     publishes: tuple[Publication, ...] = ()
     limits: Limits = Limits()
     diagnostics: tuple[Name, ...] = ()
-    comments: tuple[str, ...] = field(default=(), compare=False)
-    inner_comments: tuple[str, ...] = field(default=(), compare=False)
-    span: Span | None = field(default=None, compare=False)
+    comments: tuple[str, ...] = dataclasses.field(default=(), compare=False)
+    inner_comments: tuple[str, ...] = dataclasses.field(default=(), compare=False)
+    span: Span | None = dataclasses.field(default=None, compare=False)
 
     @property
     def published_topics(self) -> tuple[str, ...]:
@@ -90,7 +91,7 @@ class FieldRef:
 
     topic: str
     field: str
-    span: Span | None = field(default=None, compare=False)
+    span: Span | None = dataclasses.field(default=None, compare=False)
 
     @property
     def text(self) -> str:
@@ -108,8 +109,8 @@ class Related:
 
     a: FieldRef
     b: FieldRef
-    comments: tuple[str, ...] = field(default=(), compare=False)
-    span: Span | None = field(default=None, compare=False)
+    comments: tuple[str, ...] = dataclasses.field(default=(), compare=False)
+    span: Span | None = dataclasses.field(default=None, compare=False)
 
 
 @dataclass(frozen=True, slots=True)
@@ -119,8 +120,8 @@ class Interval:
     a: FieldRef
     b: FieldRef
     max_diff: float
-    comments: tuple[str, ...] = field(default=(), compare=False)
-    span: Span | None = field(default=None, compare=False)
+    comments: tuple[str, ...] = dataclasses.field(default=(), compare=False)
+    span: Span | None = dataclasses.field(default=None, compare=False)
 
 
 @dataclass(frozen=True, slots=True)
@@ -131,10 +132,14 @@ class Model:
     nodes: tuple[Node, ...] = ()
     related: tuple[Related, ...] = ()
     intervals: tuple[Interval, ...] = ()
-    comments: tuple[str, ...] = field(default=(), compare=False)  # before the `robot` header
-    trailing_comments: tuple[str, ...] = field(default=(), compare=False)  # after the last declaration
-    path: str = field(default="<model>", compare=False)
-    source: str | None = field(default=None, compare=False, repr=False)
+    comments: tuple[str, ...] = dataclasses.field(
+        default=(), compare=False
+    )  # before the `robot` header
+    trailing_comments: tuple[str, ...] = dataclasses.field(
+        default=(), compare=False
+    )  # after the last declaration
+    path: str = dataclasses.field(default="<model>", compare=False)
+    source: str | None = dataclasses.field(default=None, compare=False, repr=False)
 
     def hardware_by_name(self) -> dict[str, Hardware]:
         return {h.name.value: h for h in self.hardware}

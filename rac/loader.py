@@ -16,7 +16,9 @@ def read_text(path: str | Path) -> str:
     except FileNotFoundError:
         raise RacError([Diagnostic("RAC004", f"{path}: no such file")]) from None
     except IsADirectoryError:
-        raise RacError([Diagnostic("RAC004", f"{path}: is a directory, not a model file")]) from None
+        raise RacError(
+            [Diagnostic("RAC004", f"{path}: is a directory, not a model file")]
+        ) from None
     except (OSError, UnicodeDecodeError) as err:
         raise RacError([Diagnostic("RAC004", f"{path}: cannot read: {err}")]) from None
 

@@ -15,7 +15,18 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 from lark.tree import Meta
 
 from rac.errors import Diagnostic, RacError, Span
-from rac.ir import FieldRef, Hardware, Interval, Limits, Model, Name, Node, Publication, Related, Topic
+from rac.ir import (
+    FieldRef,
+    Hardware,
+    Interval,
+    Limits,
+    Model,
+    Name,
+    Node,
+    Publication,
+    Related,
+    Topic,
+)
 
 MEM_UNITS = {
     "B": 1,
@@ -75,21 +86,26 @@ def _parse_error(err: UnexpectedInput, path: str, text: str) -> Diagnostic:
     if isinstance(err, UnexpectedToken) and err.token.type == "$END":
         line, column = _end_position(text)
         span = Span(path, line, column, line, column + 1)
-        return Diagnostic("RAC002", f"unexpected end of file; expected {_words(err.expected)}", span)
+        return Diagnostic(
+            "RAC002", f"unexpected end of file; expected {_words(err.expected)}", span
+        )
     if isinstance(err, UnexpectedToken):
         token = err.token
         span = _span(path, token)
         return Diagnostic("RAC001", f"unexpected '{token}'; expected {_words(err.expected)}", span)
     if isinstance(err, UnexpectedCharacters):
         span = Span(path, line, column, line, column + 1)
-        char = text[err.pos_in_stream] if err.pos_in_stream < len(text) else "?"
+        pos = err.pos_in_stream
+        char = text[pos] if pos is not None and pos < len(text) else "?"
         allowed = err.allowed or set()
         hint = f"expected {_words(allowed)}" if allowed else None
         return Diagnostic("RAC003", f"unexpected character {char!r}", span, hint=hint)
     if isinstance(err, UnexpectedEOF):
         line, column = _end_position(text)
         span = Span(path, line, column, line, column + 1)
-        return Diagnostic("RAC002", f"unexpected end of file; expected {_words(set(err.expected))}", span)
+        return Diagnostic(
+            "RAC002", f"unexpected end of file; expected {_words(set(err.expected))}", span
+        )
     span = Span(path, line, column, line, column + 1)
     return Diagnostic("RAC001", "syntax error", span)
 
@@ -326,8 +342,6 @@ def _attach_comments(model: Model, comments: list[Token]) -> Model:
             inner.setdefault(owner, []).append(body)
         else:
             leading.setdefault(owner, []).append(body)
-    if not decls:
-        head = [*head, *tail] if not head else head
     new = {
         id(d): replace(
             d,
@@ -348,5 +362,5 @@ def _attach_comments(model: Model, comments: list[Token]) -> Model:
         related=swap(model.related),
         intervals=swap(model.intervals),
         comments=tuple(head),
-        trailing_comments=tuple(tail) if decls else (),
+        trailing_comments=tuple(tail),
     )

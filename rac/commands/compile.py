@@ -30,7 +30,8 @@ def register(sub: Any) -> None:
         "compile",
         "compile a model into the diagnosis and repair artefacts",
         f"Compile MODEL (.ram or ram/1 .json) and write into DIR: {names}, and "
-        "architecture.svg when Graphviz is installed. Nothing is written when the model has errors.",
+        "architecture.svg when Graphviz is installed. "
+        "Nothing is written when the model has errors.",
         "  racc compile models/tedusar.ram -o build/tedusar\n"
         "  racc compile robot.json -o out --ros-package my_observers --no-svg",
     )
@@ -61,10 +62,16 @@ def render_svg(dot_text: str) -> bytes | None:
     if dot is None:
         return None
     done = subprocess.run(
-        [dot, "-Tsvg"], input=dot_text.encode("utf-8"), capture_output=True, timeout=120, check=False
+        [dot, "-Tsvg"],
+        input=dot_text.encode("utf-8"),
+        capture_output=True,
+        timeout=120,
+        check=False,
     )
     if done.returncode != 0:
-        print(f"warning: dot failed: {done.stderr.decode(errors='replace').strip()}", file=sys.stderr)
+        print(
+            f"warning: dot failed: {done.stderr.decode(errors='replace').strip()}", file=sys.stderr
+        )
         return None
     return done.stdout
 
@@ -87,7 +94,8 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         model = compiled.model
         print(
-            f"compiled {model.name.value}: {len(model.nodes)} nodes, {len(model.hardware)} hardware, "
+            f"compiled {model.name.value}: {len(model.nodes)} nodes, "
+            f"{len(model.hardware)} hardware, "
             f"{len(model.topics)} topics -> {len(compiled.rbm)} clauses, "
             f"{len(compiled.observers)} observers"
         )

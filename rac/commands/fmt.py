@@ -21,7 +21,9 @@ def register(sub: Any) -> None:
         "format .ram files canonically",
         "Rewrite each FILE in canonical form. With --check, change nothing and exit 1 "
         "when a file is not formatted (for CI).",
-        "  racc fmt models/tedusar.ram\n  racc fmt --check models/*.ram\n  racc fmt --diff robot.ram",
+        "  racc fmt models/tedusar.ram\n"
+        "  racc fmt --check models/*.ram\n"
+        "  racc fmt --diff robot.ram",
     )
     parser.add_argument("files", metavar="FILE", nargs="+", help=".ram files")
     mode = parser.add_mutually_exclusive_group()

@@ -63,12 +63,16 @@ def derive_observers(model: Model) -> tuple[ObserverSpec, ...]:
     for node in model.nodes:
         n = mangle(node.name.value)
         specs.append(
-            ObserverSpec("NObs", f"{n}_nobs", (("node", node.name.value),), (Atom("running", (n,)),))
+            ObserverSpec(
+                "NObs", f"{n}_nobs", (("node", node.name.value),), (Atom("running", (n,)),)
+            )
         )
     for topic in model.topics:
         if topic.regular:
             t = mangle(topic.name.value)
-            specs.append(ObserverSpec("GObs", f"{t}_gobs", gobs_params(topic), (ok(topic.name.value),)))
+            specs.append(
+                ObserverSpec("GObs", f"{t}_gobs", gobs_params(topic), (ok(topic.name.value),))
+            )
     for node in model.nodes:
         n = mangle(node.name.value)
         for prop, value in (("cpu", node.limits.cpu), ("mem", node.limits.mem)):
@@ -80,11 +84,17 @@ def derive_observers(model: Model) -> tuple[ObserverSpec, ...]:
                 ("max_val", value),
                 ("mismatch_th", DEFAULT_MISMATCH_THRESHOLD),
             )
-            specs.append(ObserverSpec("PObs", f"{n}_{prop}_pobs", params, (ok(node.name.value, prop),)))
+            specs.append(
+                ObserverSpec("PObs", f"{n}_{prop}_pobs", params, (ok(node.name.value, prop),))
+            )
     for node in model.nodes:
         for device in node.diagnostics:
             d = mangle(device.value)
-            params = (("topic", DIAGNOSTICS_TOPIC), ("node", node.name.value), ("device", device.value))
+            params = (
+                ("topic", DIAGNOSTICS_TOPIC),
+                ("node", node.name.value),
+                ("device", device.value),
+            )
             specs.append(ObserverSpec("DObs", f"{d}_dobs", params, (ok(device.value),)))
     switchable = [h for h in model.hardware if h.switchable]
     if switchable:

@@ -55,7 +55,9 @@ def check_duplicates(model: Model) -> Iterator[Diagnostic]:
     ]:
         if name.value in seen:
             first_kind, first = seen[name.value]
-            where = f" (first declared as {first_kind} at line {first.span.line})" if first.span else ""
+            where = (
+                f" (first declared as {first_kind} at line {first.span.line})" if first.span else ""
+            )
             yield _error("RAC010", f"duplicate name '{name.value}'{where}", name.span)
         else:
             seen[name.value] = (kind, name)
@@ -180,7 +182,9 @@ def check_channels(model: Model) -> Iterator[Diagnostic]:
             yield _error("RAC029", f"board channels count from 1, not {hw.channel}", hw.span)
         if hw.switchable and hw.channel is not None:
             if hw.channel in owners:
-                msg = f"'{hw.name.value}' and '{owners[hw.channel]}' are both on channel {hw.channel}"
+                msg = (
+                    f"'{hw.name.value}' and '{owners[hw.channel]}' are both on channel {hw.channel}"
+                )
                 yield _error("RAC025", msg, hw.span)
             owners.setdefault(hw.channel, hw.name.value)
 
@@ -196,7 +200,9 @@ def check_values(model: Model) -> Iterator[Diagnostic]:
             None,
             None,
         ):
-            yield _error("RAC029", f"topic '{name}': tolerance, window and mismatch need a rate", t.span)
+            yield _error(
+                "RAC029", f"topic '{name}': tolerance, window and mismatch need a rate", t.span
+            )
         tol = t.rate_tolerance_hz
         if tol is not None and t.rate_hz is not None and not 0 <= tol < t.rate_hz:
             yield _error("RAC029", f"topic '{name}': tolerance must be in [0, rate)", t.span)
@@ -242,14 +248,19 @@ def check_usage(model: Model) -> Iterator[Diagnostic]:
     for node in model.nodes:
         for ref in node.subscribes:
             if ref.value in topics and ref.value not in publishers:
-                msg = f"topic '{ref.value}' is subscribed by '{node.name.value}' but no node publishes it"
+                msg = (
+                    f"topic '{ref.value}' is subscribed by '{node.name.value}' "
+                    "but no node publishes it"
+                )
                 yield _warning("RAC100", msg, ref.span)
         if not node.subscribes and not node.publishes:
             yield _warning("RAC102", f"node '{node.name.value}' has no topics", node.name.span)
     driven = {hw.value for n in model.nodes for hw in n.drives}
     for hw in model.hardware:
         if hw.name.value not in driven:
-            yield _warning("RAC101", f"hardware '{hw.name.value}' is driven by no node", hw.name.span)
+            yield _warning(
+                "RAC101", f"hardware '{hw.name.value}' is driven by no node", hw.name.span
+            )
     used = {t.value for n in model.nodes for t in n.subscribes} | set(publishers)
     for t in model.topics:
         if t.name.value not in used:

@@ -11,7 +11,6 @@ from dataclasses import dataclass
 
 from rac.pipeline import Compiled
 
-
 DEFAULT_OBSERVERS_PACKAGE = "tug_ist_diagnosis_observers"
 DEFAULT_MODEL_SERVER_PACKAGE = "tug_ist_diagnosis_model"
 
@@ -40,7 +39,9 @@ def _registry() -> tuple[Target, ...]:
 
     return (
         Target("model", "model.yaml", model_yaml.emit_model_yaml, "diagnosis model server file"),
-        Target("observers", "observers.yaml", observers_yaml.emit_observers_yaml, "observers model"),
+        Target(
+            "observers", "observers.yaml", observers_yaml.emit_observers_yaml, "observers model"
+        ),
         Target("ros1", "observers.launch", launch_ros1.emit_launch_ros1, "ROS 1 launch file"),
         Target("ros2", "observers.launch.xml", launch_ros2.emit_launch_ros2, "ROS 2 launch file"),
         Target("pddl", "repair_domain.pddl", pddl_domain.emit_repair_domain, "PDDL repair domain"),
