@@ -25,6 +25,14 @@ COMMANDS = (
     "check",
     "export",
     "fmt",
+    "diagnose",
+    "repair",
+    "scenario",
+    "simulate",
+    "board",
+    "board-sim",
+    "learn",
+    "synth",
 )
 
 DESCRIPTION = """\

@@ -83,13 +83,20 @@ def _node(n: Node) -> list[str]:
     body = _comments(n.inner_comments, INDENT)
     if n.subscribes:
         body.append(f"{INDENT}subscribes " + ", ".join(t.value for t in n.subscribes))
-    plain = [p.topic.value for p in n.publishes if not p.affected_by]
+    # Publications keep their order (the JSON export's order): a run of outputs without
+    # inputs shares one line, each output with inputs has its own.
+    plain: list[str] = []
+    for p in n.publishes:
+        if not p.affected_by:
+            plain.append(p.topic.value)
+            continue
+        if plain:
+            body.append(f"{INDENT}publishes " + ", ".join(plain))
+            plain = []
+        inputs = ", ".join(a.value for a in p.affected_by)
+        body.append(f"{INDENT}publishes {p.topic.value} from {inputs}")
     if plain:
         body.append(f"{INDENT}publishes " + ", ".join(plain))
-    for p in n.publishes:
-        if p.affected_by:
-            inputs = ", ".join(a.value for a in p.affected_by)
-            body.append(f"{INDENT}publishes {p.topic.value} from {inputs}")
     limits = []
     if n.limits.cpu is not None:
         limits.append(f"cpu {format_number(n.limits.cpu)} %")

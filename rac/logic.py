@@ -16,7 +16,7 @@ def mangle(name: str) -> str:
 
     ``/robot1/scan`` -> ``robot1_scan``; ``twist.twist.angular.z`` -> ``twist_twist_angular_z``.
     """
-    return re.sub(r"[/.\-]", "_", name.removeprefix("/"))
+    return name.removeprefix("/").replace("/", "_").replace(".", "_").replace("-", "_")
 
 
 @dataclass(frozen=True, slots=True, order=True)

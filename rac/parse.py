@@ -15,6 +15,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 from lark.tree import Meta
 
 from rac.errors import Diagnostic, RacError, Span
+from rac.fastparse import MEM_UNITS, Bail, fast_parse
 from rac.ir import (
     FieldRef,
     Hardware,
@@ -27,17 +28,7 @@ from rac.ir import (
     Related,
     Topic,
 )
-
-MEM_UNITS = {
-    "B": 1,
-    "kB": 1000,
-    "KB": 1000,
-    "MB": 1000**2,
-    "GB": 1000**3,
-    "KiB": 1024,
-    "MiB": 1024**2,
-    "GiB": 1024**3,
-}
+from rac.perf import paused_gc
 
 # What each terminal means to a user, for "expected ..." messages.
 _TERMINAL_WORDS = {
@@ -117,6 +108,18 @@ def _end_position(text: str) -> tuple[int, int]:
 
 def parse_ram(text: str, path: str = "<string>") -> Model:
     """Parse a ``.ram`` source into a :class:`Model` (not yet validated)."""
+    with paused_gc():
+        try:
+            # The hand-written reader of valid models is an order of magnitude faster;
+            # Lark stays the definition of the language and of every syntax error.
+            model, comments = fast_parse(text, path)
+        except Bail:
+            model, comments = _parse_with_lark(text, path)
+        model = _attach_comments(model, comments)
+        return replace(model, source=text)
+
+
+def _parse_with_lark(text: str, path: str) -> tuple[Model, list[Token]]:
     comments: list[Token] = []
     try:
         tree = _parse_with_comments(text, comments)
@@ -124,8 +127,7 @@ def parse_ram(text: str, path: str = "<string>") -> Model:
         raise RacError([_parse_error(err, path, text)], text) from None
     model = _Lower(path).transform(tree)
     assert isinstance(model, Model)
-    model = _attach_comments(model, comments)
-    return replace(model, source=text)
+    return model, comments
 
 
 def _parse_with_comments(text: str, sink: list[Token]) -> Tree[Token]:
@@ -334,10 +336,10 @@ def _attach_comments(model: Model, comments: list[Token]) -> Model:
         line = token.line or 0
         body = str(token)[1:].rstrip()
         owner = next((i for i, d in enumerate(decls) if line <= d.span.end_line), None)
-        if owner is None:
-            tail.append(body)
-        elif line < header_line:
+        if line < header_line:
             head.append(body)
+        elif owner is None:
+            tail.append(body)
         elif isinstance(decls[owner], Node) and line > decls[owner].span.line:
             inner.setdefault(owner, []).append(body)
         else:

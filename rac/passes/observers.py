@@ -87,15 +87,19 @@ def derive_observers(model: Model) -> tuple[ObserverSpec, ...]:
             specs.append(
                 ObserverSpec("PObs", f"{n}_{prop}_pobs", params, (ok(node.name.value, prop),))
             )
+    # One DObs per reported device (contract §2), naming every node that reports it.
+    reporters: dict[str, list[str]] = {}
     for node in model.nodes:
         for device in node.diagnostics:
-            d = mangle(device.value)
-            params = (
-                ("topic", DIAGNOSTICS_TOPIC),
-                ("node", node.name.value),
-                ("device", device.value),
-            )
-            specs.append(ObserverSpec("DObs", f"{d}_dobs", params, (ok(device.value),)))
+            reporters.setdefault(device.value, []).append(node.name.value)
+    for device_name, nodes in reporters.items():
+        params = (
+            ("topic", DIAGNOSTICS_TOPIC),
+            ("node", ",".join(nodes)),
+            ("device", device_name),
+        )
+        d = mangle(device_name)
+        specs.append(ObserverSpec("DObs", f"{d}_dobs", params, (ok(device_name),)))
     switchable = [h for h in model.hardware if h.switchable]
     if switchable:
         channels = ",".join(f"{h.name.value}:{h.channel}" for h in switchable)

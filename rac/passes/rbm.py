@@ -90,8 +90,20 @@ GROUPS = (
 
 
 def derive_rbm(model: Model) -> tuple[Clause, ...]:
-    """The exact clause set of contract §3 for a validated model."""
-    return tuple(dict.fromkeys(c for group in GROUPS for c in group(model)))
+    """The exact clause set of contract §3 for a validated model.
+
+    Two clauses are the same when their bodies hold the same atoms: the related pair
+    (τ.f1, τ.f2) with publishers n1 and n2 yields NAB(n1), NAB(n2) and NAB(n2), NAB(n1).
+    """
+    seen: set[tuple[frozenset[Atom], Atom]] = set()
+    clauses: list[Clause] = []
+    for group in GROUPS:
+        for clause in group(model):
+            key = (frozenset(clause.body), clause.head)
+            if key not in seen:
+                seen.add(key)
+                clauses.append(clause)
+    return tuple(clauses)
 
 
 def components(clauses: tuple[Clause, ...]) -> tuple[str, ...]:

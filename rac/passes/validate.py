@@ -223,9 +223,11 @@ def check_mangling(model: Model) -> Iterator[Diagnostic]:
         ("component", [*(h.name for h in model.hardware), *(n.name for n in model.nodes)]),
         ("topic", [t.name for t in model.topics]),
     ]
-    # ok/1 is reported for topics (GObs) and for devices on /diagnostics (DObs).
+    # ok/1 is reported for topics (GObs) and for devices on /diagnostics (DObs), hardware
+    # or not; clashes among topics alone or hardware alone are reported by the groups above.
     hardware = {h.name.value for h in model.hardware}
-    devices = [d for n in model.nodes for d in n.diagnostics if d.value not in hardware]
+    topics = {t.name.value for t in model.topics}
+    devices = [d for n in model.nodes for d in n.diagnostics]
     groups.append(("topic or reported device", [*(t.name for t in model.topics), *devices]))
     groups.extend((f"field of {t.name.value}", list(t.fields)) for t in model.topics)
     for kind, names in groups:
@@ -234,7 +236,8 @@ def check_mangling(model: Model) -> Iterator[Diagnostic]:
             by_atom[mangle(name.value)].append(name)
         for atom, clash in by_atom.items():
             distinct = sorted({n.value for n in clash})
-            if len(distinct) > 1:
+            seen_above = set(distinct) <= topics or set(distinct) <= hardware
+            if len(distinct) > 1 and not (kind == "topic or reported device" and seen_above):
                 first = next(n for n in clash if n.value != clash[-1].value)
                 msg = f"{kind} names {' and '.join(repr(d) for d in distinct)} both become '{atom}'"
                 hint = "rename one of them; '/', '.' and '-' all mangle to '_'"

@@ -6,9 +6,11 @@ CLI emits them in.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from rac.perf import paused_gc
 from rac.pipeline import Compiled
 
 DEFAULT_OBSERVERS_PACKAGE = "tug_ist_diagnosis_observers"
@@ -49,5 +51,16 @@ def _registry() -> tuple[Target, ...]:
     )
 
 
+def _paused_gc(emit: Emitter) -> Emitter:
+    """The emitter with the cyclic GC paused while it runs (see :mod:`rac.perf`)."""
+
+    @functools.wraps(emit)
+    def run(compiled: Compiled, options: EmitOptions) -> str:
+        with paused_gc():
+            return emit(compiled, options)
+
+    return run
+
+
 def targets() -> tuple[Target, ...]:
-    return _registry()
+    return tuple(Target(t.name, t.filename, _paused_gc(t.emit), t.description) for t in _registry())

@@ -1,0 +1,256 @@
+"""``racc board status|switch|control``: talk to the diagnostic board (chapter 8)."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+from rac.board.channels import ChannelMap, channel_map, check_fits, hobs_literals, resolve_target
+from rac.board.client import BoardClient, ClientSettings, parse_address
+from rac.board.control import send_control
+from rac.board.execute import HARDWARE_ACTIONS, parse_node_commands, run_plan
+from rac.board.protocol import Measurements
+from rac.board.scenario import device_shutdown_on_board
+from rac.board.scenario import render as render_scenario
+from rac.commands.common import add_command, load_checked
+from rac.diagnosis import load_theory
+from rac.errors import Diagnostic, RacError
+from rac.repair import NoRepairPlan, robot_name
+
+
+def register(sub: Any) -> None:
+    parser = add_command(
+        sub,
+        "board",
+        "read and switch the diagnostic hardware board",
+        "Talk to a diagnostic board (or `racc board-sim`) over the protocol of docs/board.md. "
+        "With --model, channels are named by the model's switchable hardware.",
+        "  racc board status --board 127.0.0.1:7000 --model models/tedusar.ram\n"
+        "  racc board switch --board 127.0.0.1:7000 --model models/tedusar.ram jaguar off\n"
+        "  racc board switch --board 127.0.0.1:7000 4 on\n"
+        "  racc board control --control 127.0.0.1:7001 trip jaguar",
+    )
+    actions = parser.add_subparsers(dest="board_command", metavar="ACTION")
+    status = add_command(
+        actions,
+        "status",
+        "print every channel and the hardware observer's literals",
+        "Print channel, device, on/off, current and voltage from one MSR, then the HObs "
+        "literals (on(h) / not_on(h), §5.2.6) of the model's devices.",
+        "  racc board status --board 127.0.0.1:7000 --model models/tedusar.ram --json",
+    )
+    switch = add_command(
+        actions,
+        "switch",
+        "switch one channel on or off and wait until the board shows it",
+        "Send SWT for DEVICE (a switchable device of --model, or a channel number) and wait "
+        "for the MSR that shows the new state; exit 1 when it does not come.",
+        "  racc board switch --board 127.0.0.1:7000 --model models/tedusar.ram jaguar on",
+    )
+    control = add_command(
+        actions,
+        "control",
+        "send one fault-injection line to `racc board-sim`'s control port",
+        "Send LINE (trip T, overcurrent T, disconnect T, jam T, clear T, on T, off T, status) "
+        "to the simulator's control port and print its reply; exit 1 on an 'error' reply.",
+        "  racc board control --control 127.0.0.1:7001 overcurrent hokuyo",
+    )
+    for p in (status, switch):
+        p.add_argument("--board", required=True, metavar="HOST:PORT", help="the board's address")
+        p.add_argument("--model", metavar="MODEL", help="names the channels (.ram or .json)")
+        p.add_argument(
+            "--timeout", type=float, default=2.0, help="seconds per wait (default: %(default)s)"
+        )
+        p.set_defaults(run=run)
+    status.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    switch.add_argument("device", metavar="DEVICE", help="device name or channel number")
+    switch.add_argument("state", choices=("on", "off"), help="the state to switch to")
+    control.add_argument("--control", required=True, metavar="HOST:PORT", help="control port")
+    control.add_argument("line", nargs="+", metavar="LINE", help="the control command")
+    control.set_defaults(run=run)
+    parser.set_defaults(run=run)
+
+
+def table(channels: ChannelMap, msr: Measurements) -> str:
+    lines = [f"{'channel':>7}  {'device':<20} {'state':<5} {'current A':>9} {'voltage V':>9}"]
+    for number, reading in enumerate(msr.channels, start=1):
+        device = channels.device(number) or "-"
+        state = "on" if reading.on else "off"
+        lines.append(
+            f"{number:>7}  {device:<20} {state:<5} {reading.current:>9.2f} {reading.voltage:>9.2f}"
+        )
+    return "\n".join(lines)
+
+
+def as_json(channels: ChannelMap, msr: Measurements) -> str:
+    rows = [
+        {
+            "channel": n,
+            "device": channels.device(n),
+            "on": r.on,
+            "current": round(r.current, 3),
+            "voltage": round(r.voltage, 3),
+        }
+        for n, r in enumerate(msr.channels, start=1)
+    ]
+    return json.dumps({"channels": rows, "observations": list(hobs_literals(channels, msr))})
+
+
+async def status(args: argparse.Namespace, channels: ChannelMap) -> int:
+    settings = ClientSettings(timeout_s=args.timeout)
+    async with BoardClient(parse_address(args.board), settings) as board:
+        check_fits(channels, board.channel_count)
+        msr = await board.measure()
+    if args.json:
+        print(as_json(channels, msr))
+    else:
+        print(table(channels, msr))
+        literals = hobs_literals(channels, msr)
+        if literals:
+            print("observations: " + " ".join(literals))
+    return 0
+
+
+async def switch(args: argparse.Namespace, channels: ChannelMap) -> int:
+    on = args.state == "on"
+    settings = ClientSettings(timeout_s=args.timeout)
+    async with BoardClient(parse_address(args.board), settings) as board:
+        number = resolve_target(args.device, channels, board.channel_count)
+        await board.switch(number, on)
+        msr = await board.wait_for_state(number, on, args.timeout)
+    reading = msr.channels[number - 1]
+    name = channels.device(number) or "spare"
+    print(
+        f"channel {number} ({name}) is {args.state}: "
+        f"{reading.current:.2f} A, {reading.voltage:.2f} V"
+    )
+    return 0
+
+
+async def control(args: argparse.Namespace) -> int:
+    address = parse_address(args.control)
+    try:
+        reply = await send_control(address.host, address.port, " ".join(args.line))
+    except (OSError, TimeoutError) as err:
+        raise RacError(
+            [Diagnostic("RAC090", f"cannot reach the control port {address}: {err or 'timeout'}")]
+        ) from None
+    print(reply)
+    return 0 if reply.startswith("ok") else 1
+
+
+def run(args: argparse.Namespace) -> int:
+    command = getattr(args, "board_command", None)
+    if command is None:
+        print("racc board: give an action: status, switch or control", file=sys.stderr)
+        return 2
+    if command == "control":
+        return asyncio.run(control(args))
+    channels = channel_map(load_checked(args.model)) if args.model else ChannelMap()
+    if command == "status":
+        return asyncio.run(status(args, channels))
+    return asyncio.run(switch(args, channels))
+
+
+# -- `racc repair --execute` and `racc scenario --board` (issue 6, item 4) --------------------
+# repair.py and scenario.py call these, so that their own code stays about planning.
+
+
+def add_execute_options(parser: argparse.ArgumentParser) -> None:
+    """``--execute --board HOST:PORT [--node-commands start=T --node-commands stop=T]``."""
+    parser.add_argument(
+        "--execute",
+        action="store_true",
+        help="carry out the plan: power_up/shutdown through --board (waiting for the MSR that "
+        "shows each new state), node steps printed as commands or run from --node-commands",
+    )
+    add_board_options(parser)
+
+
+def add_board_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--board", metavar="HOST:PORT", help="the diagnostic board (or board-sim)")
+    parser.add_argument(
+        "--node-commands",
+        metavar="KIND=TEMPLATE",
+        action="append",
+        default=[],
+        help="run node steps: start=TEMPLATE and stop=TEMPLATE, {node} is the node "
+        "(without them node steps are printed, not run)",
+    )
+
+
+def _board_channels(model_path: str) -> ChannelMap:
+    if model_path.endswith((".yaml", ".yml")):
+        raise RacError(
+            [
+                Diagnostic(
+                    "RAC092",
+                    "a model.yaml does not say which channel a device is on",
+                    hint="give the .ram or ram/1 .json model to use the board",
+                )
+            ]
+        )
+    return channel_map(load_checked(model_path))
+
+
+def execute_repair(args: argparse.Namespace, plan: Sequence[Sequence[str]]) -> int:
+    """Execute a repair plan after ``racc repair`` printed it; RacError (exit 1) on failure."""
+    steps = [(step[0], step[1]) for step in plan]
+    hardware = any(action in HARDWARE_ACTIONS for action, _ in steps)
+    if hardware and not args.board:
+        raise RacError(
+            [Diagnostic("RAC090", "--execute needs --board HOST:PORT for power_up/shutdown steps")]
+        )
+    channels = _board_channels(args.model) if hardware else ChannelMap()
+    templates = parse_node_commands(args.node_commands) if args.node_commands else None
+    address = parse_address(args.board) if args.board else None
+    reports = run_plan(steps, channels, address, node_commands=templates)
+    if args.json:
+        print(json.dumps({"executed": [str(r) for r in reports]}))
+    else:
+        print(f"executed ({len(reports)} steps):")
+        print("\n".join(f"{i}. {r}" for i, r in enumerate(reports, 1)))
+    return 0
+
+
+def add_scenario_options(parser: argparse.ArgumentParser) -> None:
+    add_board_options(parser)
+    parser.add_argument(
+        "--board-control",
+        metavar="HOST:PORT",
+        help="board-sim's control port: trip the device there (else the scenario switches it off)",
+    )
+
+
+def run_board_scenario(args: argparse.Namespace) -> int:
+    """``racc scenario MODEL device-shutdown --board …``: end to end against the board."""
+    if args.scenario != "device-shutdown":
+        print(
+            "racc scenario: error: --board runs the device-shutdown scenario only", file=sys.stderr
+        )
+        return 2  # a command line error, as argparse's
+    _board_channels(args.model)  # a model.yaml fails here, clearly
+    theory = load_theory(args.model)
+    templates = parse_node_commands(args.node_commands) if args.node_commands else None
+    control = parse_address(args.board_control) if args.board_control else None
+    try:
+        result = asyncio.run(
+            device_shutdown_on_board(
+                theory,
+                robot_name(theory, args.model),
+                parse_address(args.board),
+                device=args.device,
+                control=control,
+                node_commands=templates,
+                planner_timeout_s=args.planner_timeout,
+            )
+        )
+    except NoRepairPlan as err:
+        print(err.render(), file=sys.stderr)
+        return 3
+    print(json.dumps(result.to_json()) if args.json else render_scenario(result))
+    return 0

@@ -1,0 +1,175 @@
+"""``racc learn``: learn a model from recorded fault-free runs (chapter 9)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from rac.commands.common import add_command, load_checked, write_file_atomically
+from rac.fmt import format_model
+from rac.learn import LearnOptions, learn, observer_counts, report
+from rac.learn.fields import FieldSelector
+from rac.learn.graph import parse_graph
+from rac.learn.options import (
+    DEFAULT_ALPHA,
+    DEFAULT_MIN_LIFT,
+    DEFAULT_OCCURRENCES,
+    DEFAULT_Q,
+    DEFAULT_SIGMAS,
+)
+from rac.learn.properties import parse_properties, property_stats
+from rac.learn.recording import read_recording
+from rac.loader import read_text
+from rac.pipeline import compile_model
+
+
+def register(sub: Any) -> None:
+    parser = add_command(
+        sub,
+        "learn",
+        "learn a model from recorded fault-free runs (rosbags)",
+        "Learn a robot model from one or more fault-free recordings: which topics are regular "
+        "(frequency observers with their rate and tolerance), node CPU and memory limits "
+        "(from --properties) and which fields are qualitatively related (binary qualitative "
+        "observers).  Several runs are merged into one training set (Algorithm 19).  The "
+        "structure (subscriptions, hardware, drivers) comes from --base or --graph; a ROS 1 "
+        "recording names each topic's publishers.  Every learned value carries a comment with "
+        "its evidence; the written model compiles.",
+        "  racc learn run.bag --base models/tedusar.ram -o learned.ram\n"
+        "  racc learn run1.bag run2.bag --base robot.ram -Q 0.8 --alpha 10 -o m.ram "
+        "--report m.json\n"
+        "  racc learn ros2_run/ --graph graph.yaml --properties run.properties.csv -o m.ram\n"
+        "  racc learn run.bag --include-fields 'ranges' 'header.*' -o m.ram",
+    )
+    parser.add_argument(
+        "runs", metavar="RUN", nargs="+", help="a ROS 1 .bag file or a ROS 2 bag directory"
+    )
+    parser.add_argument("-o", "--output", metavar="FILE", required=True, help="the learned .ram")
+    structure = parser.add_mutually_exclusive_group()
+    structure.add_argument(
+        "--base", metavar="MODEL", help="a model whose structure is kept and parameters learned"
+    )
+    structure.add_argument(
+        "--graph", metavar="YAML", help="the computation graph (docs/learning.md shows the shape)"
+    )
+    parser.add_argument(
+        "--alpha",
+        type=float,
+        default=DEFAULT_ALPHA,
+        help="a topic is regular when mean/σ of its intervals exceeds α (default: %(default)s)",
+    )
+    parser.add_argument(
+        "-Q",
+        dest="q",
+        type=float,
+        default=DEFAULT_Q,
+        help="fields are related when their trend match ratio exceeds Q (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--occurrences",
+        metavar="C",
+        type=int,
+        default=DEFAULT_OCCURRENCES,
+        help="occurrences per regression window (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--min-lift",
+        type=float,
+        default=DEFAULT_MIN_LIFT,
+        help="a relation's ratio must also beat chance by this much; 0 is the dissertation's "
+        "rule (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--no-integrated",
+        action="store_true",
+        help="do not correlate integrated signals I(M)",
+    )
+    parser.add_argument(
+        "--properties", metavar="CSV", help="node samples: time,node,cpu,mem (cpu %%, mem bytes)"
+    )
+    parser.add_argument(
+        "--sigmas",
+        type=float,
+        default=DEFAULT_SIGMAS,
+        help="a limit is mean + K·σ of the samples, at least their max (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--include-fields",
+        metavar="PATTERN",
+        nargs="+",
+        default=[],
+        help="also use fields matching these glob patterns (arrays, header fields, fields "
+        "the base model does not list): 'ranges', 'header.*', '/scan.ranges'",
+    )
+    parser.add_argument("--name", help="the robot's name when there is no base model")
+    parser.add_argument("--report", metavar="FILE", help="write counts and evidence as JSON")
+    parser.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
+    parser.set_defaults(run=run)
+
+
+def _check_options(args: argparse.Namespace) -> None:
+    problems = []
+    if args.alpha <= 0:
+        problems.append("--alpha must be above 0")
+    if not 0 <= args.q < 1:
+        problems.append("-Q must be in [0, 1)")
+    if args.occurrences < 2:
+        problems.append("--occurrences must be at least 2")
+    if args.sigmas < 0:
+        problems.append("--sigmas must not be negative")
+    if problems:
+        print("racc learn: error: " + "; ".join(problems), file=sys.stderr)
+        raise SystemExit(2)
+
+
+def run(args: argparse.Namespace) -> int:
+    _check_options(args)
+    base = load_checked(args.base) if args.base else None
+    graph = parse_graph(read_text(args.graph), args.graph) if args.graph else None
+    properties = []
+    if args.properties:
+        properties = property_stats(parse_properties(read_text(args.properties), args.properties))
+    declared = None
+    if base is not None:
+        declared = {t.name.value: frozenset(f.value for f in t.fields) for t in base.topics}
+    selector = FieldSelector(declared, tuple(args.include_fields))
+    only = frozenset(declared) if declared is not None else None
+    started = time.perf_counter()
+    recording = read_recording(args.runs, selector, only)
+    read_s = time.perf_counter() - started
+    options = LearnOptions(
+        alpha=args.alpha,
+        q=args.q,
+        occurrences=args.occurrences,
+        min_lift=args.min_lift,
+        sigmas=args.sigmas,
+        integrate=not args.no_integrated,
+        name=args.name,
+    )
+    result = learn(recording, options, base=base, graph=graph, properties=properties)
+    compile_model(result.model)  # the learned model must compile; a failure here is a bug
+    total_s = time.perf_counter() - started
+    for note in result.notes:
+        print(f"note: {note}", file=sys.stderr)
+    write_file_atomically(Path(args.output), format_model(result.model))
+    if args.report:
+        doc = report(result)
+        doc["runs"] = [
+            {"path": r.path, "ros_version": r.ros_version, "messages": r.messages,
+             "duration_s": r.end - r.start}
+            for r in recording.runs
+        ]
+        doc["timing"] = {"read_s": read_s, "total_s": total_s}
+        write_file_atomically(Path(args.report), json.dumps(doc, indent=2) + "\n")
+    if not args.quiet:
+        counts = observer_counts(result.model)
+        summary = ", ".join(f"{v} {k}" for k, v in counts.items() if k != "total")
+        print(
+            f"learned {result.model.name.value} from {recording.messages} messages in "
+            f"{len(recording.runs)} run(s) ({total_s:.1f} s): {summary} -> {args.output}"
+        )
+    return 0

@@ -1,0 +1,142 @@
+"""``racc repair``: diagnose the observations, choose what to repair, plan with Fast Downward.
+
+``run`` computes a :class:`~rac.repair.RepairResult`, then prints it; a command
+that executes the plan can reuse ``compute``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from rac.commands.board import add_execute_options, execute_repair
+from rac.commands.common import add_command, write_file_atomically
+from rac.commands.diagnose import add_observation_options, observations
+from rac.diagnosis import load_theory
+from rac.repair import (
+    DEFAULT_TIMEOUT_S,
+    PLANNER,
+    STRATEGIES,
+    NoRepairPlan,
+    RepairResult,
+    Step,
+    prepare,
+    robot_name,
+    solve,
+)
+from rac.repair.validate import validate_plan
+
+EXIT_NO_PLAN = 3
+
+
+def seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError("must be more than 0")
+    return value
+
+
+def add_planner_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--planner-timeout",
+        metavar="S",
+        type=seconds,
+        default=DEFAULT_TIMEOUT_S,
+        help="give the planner at most S seconds (default: %(default)g)",
+    )
+    parser.add_argument(
+        "--validate",
+        action="store_true",
+        help="check the plan with unified-planning's plan validator (optional extra)",
+    )
+    parser.add_argument("--json", action="store_true", help="print JSON (contract §7)")
+
+
+def register(sub: Any) -> None:
+    parser = add_command(
+        sub,
+        "repair",
+        "plan the repair of a diagnosed fault",
+        "Diagnose the observations against MODEL (.ram, ram/1 .json or model.yaml), choose the "
+        "components to repair, and plan their repair with Fast Downward in the PDDL repair "
+        "domain: a bad node is restarted, a bad switchable device power-cycled, and a driver "
+        "restarted after its device. Prints the plan as numbered steps. Exit code 3 when no "
+        "plan exists (non-switchable hardware diagnosed faulty, an unsolvable problem, a "
+        "missing or failing planner, a time-out).",
+        "  racc repair models/tedusar.ram --obs 'on(jaguar)' --obs 'running(jaguar_node)' "
+        "--obs 'not ok(pose)'\n"
+        "  racc repair build/tedusar/model.yaml --obs-file obs.txt --json --validate\n"
+        "  racc repair models/tedusar.ram --obs 'not running(hector_mapping)' "
+        "--strategy first --problem-out problem.pddl",
+    )
+    parser.add_argument("model", metavar="MODEL", help="a .ram, ram/1 .json or model.yaml file")
+    add_observation_options(parser)
+    parser.add_argument(
+        "--strategy",
+        choices=STRATEGIES,
+        default="minimal",
+        help="minimal: repair every component of the minimum-cardinality diagnoses in one "
+        "plan (default); first: repair the first diagnosis only, as the dissertation does",
+    )
+    parser.add_argument(
+        "--problem-out", metavar="F", help="also write the PDDL repair problem to file F"
+    )
+    add_planner_options(parser)
+    add_execute_options(parser)  # --execute --board --node-commands (issue 6, rac/board)
+    parser.set_defaults(run=run)
+
+
+def step_text(step: Step) -> str:
+    return f"{step[0]}({', '.join(step[1:])})"
+
+
+def plan_lines(plan: tuple[Step, ...]) -> list[str]:
+    return [f"{i}. {step_text(step)}" for i, step in enumerate(plan, 1)]
+
+
+def compute(args: argparse.Namespace) -> RepairResult:
+    """Diagnose, choose, plan (and validate): the result the command prints."""
+    theory = load_theory(args.model)
+    theta = observations(args, theory)
+    prepared = prepare(theory, theta, robot_name(theory, args.model), args.strategy)
+    if args.problem_out:
+        write_file_atomically(Path(args.problem_out), prepared.problem_text)
+    result = solve(prepared, args.planner_timeout)
+    if args.validate and result.plan:
+        validate_plan(prepared.domain_text, prepared.problem_text, prepared.problem, result.plan)
+    return result
+
+
+def report(result: RepairResult) -> str:
+    prepared = result.prepared
+    if not prepared.bad:
+        return "no repair needed: the observations are consistent with every component working"
+    count = len(prepared.diagnosis.diagnoses)
+    how = f"{prepared.strategy} strategy, {count} minimal diagnos{'is' if count == 1 else 'es'}"
+    lines = [
+        f"diagnosis: bad {{{', '.join(prepared.bad)}}} ({how})",
+        f"plan ({len(result.plan)} steps, {PLANNER}):",
+        *plan_lines(result.plan),
+    ]
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        result = compute(args)
+    except NoRepairPlan as err:
+        print(err.render(), file=sys.stderr)
+        return EXIT_NO_PLAN
+    if args.json:
+        print(json.dumps(result.to_json()))
+    else:
+        print(report(result))
+    if args.execute:
+        return execute_repair(args, result.plan)
+    return 0

@@ -1,0 +1,92 @@
+"""``racc scenario``: the dissertation's repair experiments (§10.1.1.1, §10.1.1.2).
+
+``run`` computes a :class:`~rac.repair.ScenarioResult`, then prints it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from rac.commands.board import add_scenario_options, run_board_scenario
+from rac.commands.common import add_command
+from rac.commands.repair import EXIT_NO_PLAN, add_planner_options, plan_lines
+from rac.diagnosis import load_theory
+from rac.repair import PLANNER, SCENARIOS, Kind, NoRepairPlan, ScenarioResult, robot_name
+from rac.repair.scenario import run_scenario, state_json
+from rac.repair.validate import validate_plan
+
+
+def register(sub: Any) -> None:
+    parser = add_command(
+        sub,
+        "scenario",
+        "run a repair experiment: power-up or device-shutdown",
+        "Break MODEL as a scenario says, derive what the observers would report, diagnose, "
+        "plan the repair and print the diagnosis, the plan and the state after it. "
+        "power-up (§10.1.1.1): every switchable device off, every node stopped. "
+        "device-shutdown (§10.1.1.2): one device (--device, default the first switchable "
+        "one) goes off while the rest runs.",
+        "  racc scenario models/tedusar.ram power-up\n"
+        "  racc scenario models/tedusar.ram device-shutdown --device hokuyo --json",
+    )
+    parser.add_argument("model", metavar="MODEL", help="a .ram, ram/1 .json or model.yaml file")
+    parser.add_argument(
+        "scenario", metavar="SCENARIO", choices=SCENARIOS, help=" or ".join(SCENARIOS)
+    )
+    parser.add_argument("--device", metavar="D", help="device-shutdown: the device that goes off")
+    add_planner_options(parser)
+    add_scenario_options(parser)  # --board --board-control --node-commands (issue 6)
+    parser.set_defaults(run=run)
+
+
+def compute(args: argparse.Namespace) -> ScenarioResult:
+    theory = load_theory(args.model)
+    result = run_scenario(
+        theory, robot_name(theory, args.model), args.scenario, args.device, args.planner_timeout
+    )
+    repair = result.repair
+    if args.validate and repair.plan:
+        prepared = repair.prepared
+        validate_plan(prepared.domain_text, prepared.problem_text, prepared.problem, repair.plan)
+    return result
+
+
+def report(result: ScenarioResult) -> str:
+    scenario, repair = result.scenario, result.repair
+    prepared = repair.prepared
+    what = f" of {scenario.device}" if scenario.device else ""
+    lines = [
+        f"scenario {scenario.name}{what}: {len(prepared.observations)} observations, "
+        f"{sum(not o.positive for o in prepared.observations)} of them negative",
+        f"diagnosis: bad {{{', '.join(prepared.bad)}}}",
+        f"plan ({len(repair.plan)} steps, {PLANNER}):",
+        *plan_lines(repair.plan),
+        "state after the plan:",
+    ]
+    state = state_json(prepared.problem.system, repair.final)
+    width = max((len(c) for c in state), default=0)
+    for comp, entry in state.items():
+        if entry["kind"] == Kind.NODE.value:
+            power = "running" if entry["running"] else "stopped"
+        elif entry["kind"] == Kind.DEVICE.value:
+            power = "on" if entry["on"] else "off"
+        else:
+            power = "-"
+        health = "good" if entry["good"] else "bad"
+        lines.append(f"  {comp:<{width}}  {entry['kind']:<8}  {power:<7}  {health}")
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.board:
+        return run_board_scenario(args)
+    try:
+        result = compute(args)
+    except NoRepairPlan as err:
+        print(err.render(), file=sys.stderr)
+        return EXIT_NO_PLAN
+    print(json.dumps(result.to_json()) if args.json else report(result))
+    return 0

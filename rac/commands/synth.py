@@ -1,0 +1,110 @@
+"""``racc synth``: write a synthetic recording of the robot a model describes."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from rac.commands.common import add_command, load_checked
+from rac.errors import Diagnostic, RacError
+from rac.synth import SynthOptions, plan_recording, write_recording
+from rac.synth.faults import FAULT_KINDS, parse_fault
+from rac.synth.recording import fault_summary
+
+KINDS = ", ".join(f"{k} (TARGET a {v})" for k, v in FAULT_KINDS.items())
+
+
+def register(sub: Any) -> None:
+    parser = add_command(
+        sub,
+        "synth",
+        "write a synthetic recording (rosbag) of the robot a model describes",
+        "Write a realistic recording of MODEL's robot for demos and tests: regular topics at "
+        "their rates with timing jitter, event-driven topics irregular, sensors driven by one "
+        "teleoperated motion (odometry yaw integrates its angular velocity, the IMU's yaw "
+        "follows it, laser-alignment servos follow the IMU's pitch and roll), real ROS message "
+        "types.  RUN ending in .bag is a ROS 1 bag, anything else a ROS 2 bag directory.  The "
+        "nodes' CPU and memory samples go to RUN's name with .properties.csv beside it.  "
+        f"Faults KIND@T[+D]:TARGET start at T s and last D s (default: to the end): {KINDS}.",
+        "  racc synth models/tedusar.ram -o run.bag --duration 300\n"
+        "  racc synth models/tedusar.ram -o run2 --ros2 --storage mcap --seed 7\n"
+        "  racc synth models/tedusar.ram -o faulty.bag --fault slip@60+10:/pose "
+        "--fault crash@120:joy_node --fault freq@90+20:/scan --fault cpu@150+10:hector_mapping",
+    )
+    parser.add_argument("model", metavar="MODEL", help="a .ram file or a ram/1 .json")
+    parser.add_argument("-o", "--output", metavar="RUN", required=True, help="the recording")
+    version = parser.add_mutually_exclusive_group()
+    version.add_argument("--ros1", action="store_true", help="a ROS 1 .bag file")
+    version.add_argument("--ros2", action="store_true", help="a ROS 2 bag directory")
+    parser.add_argument(
+        "--storage", choices=("sqlite3", "mcap"), default="sqlite3", help="ROS 2 storage"
+    )
+    parser.add_argument(
+        "--duration", metavar="S", type=float, default=120.0, help="seconds (default: 120)"
+    )
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    parser.add_argument(
+        "--fault", metavar="KIND@T:TARGET", action="append", default=[], help="inject a fault"
+    )
+    parser.add_argument("--force", action="store_true", help="replace RUN if it exists")
+    parser.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
+    parser.set_defaults(run=run)
+
+
+def properties_path(run: Path) -> Path:
+    """``run.bag`` -> ``run.properties.csv``; ``run/`` -> ``run.properties.csv`` beside it."""
+    stem = run.name[: -len(".bag")] if run.name.endswith(".bag") else run.name
+    return run.with_name(stem + ".properties.csv")
+
+
+def _remove(path: Path) -> None:
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path)
+    elif path.exists() or path.is_symlink():
+        path.unlink()
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.duration <= 0:
+        print("racc synth: error: --duration must be above 0", file=sys.stderr)
+        return 2
+    model = load_checked(args.model)
+    faults = tuple(parse_fault(f, model) for f in args.fault)
+    out = Path(args.output)
+    ros_version = 1 if args.ros1 or (not args.ros2 and out.name.endswith(".bag")) else 2
+    csv_path = properties_path(out)
+    for target in (out, csv_path):
+        if (target.exists() or target.is_symlink()) and not args.force:
+            raise RacError(
+                [Diagnostic("RAC084", f"{target} exists", hint="remove it or pass --force")]
+            )
+    options = SynthOptions(args.duration, args.seed, ros_version, args.storage, faults)
+    plan = plan_recording(model, options)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        # Write beside the target, then move into place: no half-written recording remains.
+        with tempfile.TemporaryDirectory(prefix=".racc-synth-", dir=out.parent) as tmp:
+            staged = Path(tmp) / out.name
+            count = write_recording(plan, staged)
+            staged_csv = Path(tmp) / csv_path.name
+            staged_csv.write_text(plan.properties, encoding="utf-8")
+            for target in (out, csv_path):
+                _remove(target)
+            os.replace(staged, out)
+            os.replace(staged_csv, csv_path)
+    except OSError as err:
+        raise RacError([Diagnostic("RAC004", f"{out}: cannot write: {err}")]) from None
+    if not args.quiet:
+        kind = "ROS 1 bag" if ros_version == 1 else f"ROS 2 bag ({args.storage})"
+        print(
+            f"wrote {out} ({kind}): {count} messages on {len(plan.topics)} topics, "
+            f"{args.duration:g} s; properties -> {csv_path}"
+        )
+        for line in fault_summary(faults):
+            print(f"  fault: {line}")
+    return 0

@@ -1,0 +1,85 @@
+"""``diagnose``: consistency, minimal conflicts and all minimal diagnoses of Θ."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from rac.diagnosis.engine import Index
+from rac.diagnosis.search import HittingSetDag, minimal_sets, transversals
+from rac.diagnosis.theory import Literal, Theory
+
+
+@dataclass(frozen=True, slots=True)
+class DiagnosisResult:
+    consistent: bool
+    conflicts: tuple[tuple[str, ...], ...]  # minimal conflict sets, each sorted
+    diagnoses: tuple[tuple[str, ...], ...]  # all minimal diagnoses, fewest first then by name
+    components: tuple[str, ...]
+    bounded: bool  # True when max_card cut the search
+
+    def good(self, bad: tuple[str, ...]) -> tuple[str, ...]:
+        """COMPS minus ``bad``, sorted."""
+        faulty = set(bad)
+        return tuple(c for c in self.components if c not in faulty)
+
+
+_CACHE: dict[int, tuple[Theory, Index]] = {}
+_CACHE_SIZE = 8
+
+
+def compile_theory(theory: Theory) -> Index:
+    """The clause index of ``theory``, built once per theory object and then reused."""
+    hit = _CACHE.get(id(theory))
+    if hit is not None and hit[0] is theory:
+        return hit[1]
+    index = Index(theory)
+    if len(_CACHE) >= _CACHE_SIZE:
+        _CACHE.pop(next(iter(_CACHE)))
+    _CACHE[id(theory)] = (theory, index)  # holds the theory, so its id stays unique
+    return index
+
+
+def _ordered(sets: Sequence[frozenset[str]]) -> tuple[tuple[str, ...], ...]:
+    return tuple(sorted((tuple(sorted(s)) for s in sets), key=lambda s: (len(s), s)))
+
+
+def is_consistent(theory: Theory, observations: Sequence[Literal], bad: Sequence[str] = ()) -> bool:
+    """Is clauses ∪ Θ ∪ AB(bad) ∪ NAB(COMPS∖bad) consistent?  One linear propagation."""
+    index = compile_theory(theory)
+    base, clash = index.base(observations)
+    if clash:
+        return False
+    return not index.run(base, index.assignment(frozenset(bad), strong=True)).clash
+
+
+def diagnose(
+    theory: Theory, observations: Sequence[Literal], max_card: int | None = None
+) -> DiagnosisResult:
+    """Reiter's minimal diagnoses (Definition 3.32) of Θ, searched up to ``max_card`` faults."""
+    index = compile_theory(theory)
+    base, clash = index.base(observations)
+    comps = theory.components
+    if clash:  # Θ contradicts the model whatever the components do: no diagnosis exists
+        return DiagnosisResult(False, ((),), (), comps, False)
+    full = index.full(base)  # the all-normal closure every candidate is checked against
+    strong = HittingSetDag(index, base, full, strong=True).run(max_card)
+    consistent = strong.diagnoses == (frozenset(),)
+    # Definition 3.33's conflicts assume only NAB; with fault-mode rules they come from the
+    # weak search (no AB asserted), which is Reiter's monotone setting again.
+    weak = (
+        strong if index.monotone else HittingSetDag(index, base, full, strong=False).run(max_card)
+    )
+    if consistent:
+        conflicts: list[frozenset[str]] = []
+    elif weak.bounded:
+        conflicts = minimal_sets([nab for nab, ab in weak.conflicts if not ab])
+    else:
+        conflicts = transversals(weak.diagnoses)
+    return DiagnosisResult(
+        consistent=consistent,
+        conflicts=_ordered(conflicts),
+        diagnoses=_ordered(strong.diagnoses),
+        components=comps,
+        bounded=strong.bounded,
+    )

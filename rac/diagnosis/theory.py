@@ -1,0 +1,185 @@
+"""Diagnosis theories and observation literals (contract §5 and §6).
+
+A :class:`Theory` is what the engine reasons over, whichever file it came from: the
+compiled RBM of a ``.ram``/``.json`` model, or the rules of a model-server ``model.yaml``
+(generated or hand-written, with fault-mode rules and ``false`` constraints).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+from rac.errors import Diagnostic, RacError, Span, did_you_mean
+from rac.ir import Model
+from rac.loader import load_model, read_text
+from rac.logic import AB, FALSE, NAB, NEG_PREFIX, Atom, Clause, parse_atom
+from rac.pipeline import compile_model
+
+
+@dataclass(frozen=True, slots=True)
+class Theory:
+    """A diagnosis model: Horn clauses, observable atoms and the components."""
+
+    clauses: tuple[Clause, ...]
+    props: tuple[Atom, ...]
+    components: tuple[str, ...]
+    ab: str = AB
+    nab: str = NAB
+    neg_prefix: str = NEG_PREFIX
+    model: Model | None = None
+
+    def negate(self, atom: Atom) -> Atom:
+        """The propositional atom standing for ¬atom (``ok(x)`` <-> ``not_ok(x)``)."""
+        if atom.predicate.startswith(self.neg_prefix):
+            return Atom(atom.predicate.removeprefix(self.neg_prefix), atom.args)
+        return Atom(self.neg_prefix + atom.predicate, atom.args)
+
+    def is_assumption(self, atom: Atom) -> bool:
+        return atom.predicate in (self.ab, self.nab)
+
+
+@dataclass(frozen=True, slots=True)
+class Literal:
+    """An observation: ``atom`` or its negation; ``atom`` never carries the prefix."""
+
+    atom: Atom
+    positive: bool
+    neg_prefix: str = NEG_PREFIX
+
+    def __str__(self) -> str:
+        return str(self.atom) if self.positive else f"{self.neg_prefix}{self.atom}"
+
+    def negated(self) -> Literal:
+        return Literal(self.atom, not self.positive, self.neg_prefix)
+
+
+def components_of(clauses: Iterable[Clause], ab: str = AB, nab: str = NAB) -> tuple[str, ...]:
+    """COMPS: the arguments of AB(...) and NAB(...) anywhere in the clauses, sorted."""
+    found: set[str] = set()
+    for clause in clauses:
+        for atom in (*clause.body, clause.head):
+            if atom.predicate in (ab, nab) and len(atom.args) == 1:
+                found.add(atom.args[0])
+    return tuple(sorted(found))
+
+
+def load_theory(path: str) -> Theory:
+    """A theory from a ``.ram``/``.json`` model (compiled) or a ``.yaml``/``.yml`` file."""
+    if path.endswith((".yaml", ".yml")):
+        from rac.diagnosis.model_yaml import parse_model_yaml
+
+        return parse_model_yaml(read_text(path), path)
+    compiled = compile_model(load_model(path))
+    return Theory(
+        clauses=compiled.rbm,
+        props=compiled.props,
+        components=compiled.components,
+        model=compiled.model,
+    )
+
+
+def known_atoms(theory: Theory) -> frozenset[Atom]:
+    """Positive forms of every atom the theory mentions (props and rules, not AB/NAB)."""
+    atoms: set[Atom] = set(theory.props)
+    for clause in theory.clauses:
+        atoms.update(clause.body)
+        atoms.add(clause.head)
+    positive = {_strip(a, theory.neg_prefix) for a in atoms if not theory.is_assumption(a)}
+    positive.discard(Atom(FALSE))
+    return frozenset(positive)
+
+
+def _strip(atom: Atom, prefix: str) -> Atom:
+    return Atom(atom.predicate.removeprefix(prefix), atom.args)
+
+
+_NEGATIONS = re.compile(r"^\s*(?:not\s+|¬\s*|~\s*|!\s*)")
+
+
+def parse_literal(text: str, theory: Theory) -> Literal:
+    """``ok(pose)``, ``not ok(pose)``, ``not_ok(pose)`` or ``¬ok(pose)`` as a literal.
+
+    RacError RAC041 when it is not a literal, RAC040 when the theory does not know the atom.
+    """
+    return literal_at(text, theory, None)
+
+
+def literal_at(text: str, theory: Theory, where: tuple[str, int, int] | None) -> Literal:
+    """:func:`parse_literal`, with ``(file, line, column)`` for the diagnostic span."""
+    span = None
+    if where is not None:
+        file, line, column = where
+        span = Span(file, line, column, line, column + max(1, len(text.strip())))
+    negation = _NEGATIONS.match(text)
+    positive = negation is None
+    body = text[negation.end() :] if negation else text
+    try:
+        atom = parse_atom(body)
+    except ValueError:
+        raise RacError(
+            [
+                Diagnostic(
+                    "RAC041",
+                    f"malformed literal {text.strip()!r}",
+                    span,
+                    hint="write an atom such as 'ok(pose)', 'not ok(pose)' or 'not_ok(pose)'",
+                )
+            ]
+        ) from None
+    known = known_atoms(theory)
+    if theory.is_assumption(atom):
+        raise RacError(
+            [
+                Diagnostic(
+                    "RAC040",
+                    f"'{atom}' is an assumption about a component, not an observation",
+                    span,
+                    hint="observe what the observers report, e.g. 'running(n)' or 'ok(topic)'",
+                )
+            ]
+        )
+    stripped = _strip(atom, theory.neg_prefix)
+    if atom.predicate.startswith(theory.neg_prefix) and stripped in known:
+        atom, positive = stripped, not positive
+    if atom not in known:
+        names = [str(a) for a in known]
+        hint = did_you_mean(str(atom), names)
+        if hint is None and theory.props:
+            shown = ", ".join(str(a) for a in theory.props[:5])
+            hint = f"observable atoms include {shown}"
+        raise RacError(
+            [Diagnostic("RAC040", f"unknown atom '{atom}' in an observation", span, hint=hint)]
+        )
+    return Literal(atom, positive, theory.neg_prefix)
+
+
+def collect(literals: Iterable[Literal]) -> tuple[Literal, ...]:
+    """Θ ⊕ θ for each literal in turn (Algorithm 10): a literal replaces its opposite."""
+    held: dict[Atom, Literal] = {}
+    for literal in literals:
+        held.pop(literal.atom, None)  # later wins; keep insertion order of the latest
+        held[literal.atom] = literal
+    return tuple(held.values())
+
+
+def parse_observations(text: str, file: str, theory: Theory) -> tuple[Literal, ...]:
+    """An observation file: one literal per line, ``#`` starts a comment, blank lines skipped.
+
+    Every bad line is reported (RAC040/RAC041) with ``file:line:column``.
+    """
+    literals: list[Literal] = []
+    errors: list[Diagnostic] = []
+    for number, line in enumerate(text.splitlines(), start=1):
+        content = line.split("#", 1)[0]
+        if not content.strip():
+            continue
+        column = len(content) - len(content.lstrip()) + 1
+        try:
+            literals.append(literal_at(content.strip(), theory, (file, number, column)))
+        except RacError as err:
+            errors.extend(err.diagnostics)
+    if errors:
+        raise RacError(errors, text)
+    return tuple(literals)

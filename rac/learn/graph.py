@@ -1,0 +1,102 @@
+"""The computation graph (Definition 9.2) from a YAML file (``racc learn --graph``).
+
+The shape (docs/learning.md shows how ``rosnode info`` / ``ros2 node info`` map to it)::
+
+    nodes:
+      /jaguar_node:
+        publications: [/pose]          # or: publishers
+        subscriptions: [/cmd_vel]      # or: subscribers
+        drives: [jaguar]               # optional: hardware the node drives
+    hardware:                          # optional
+      jaguar: {switchable: true, channel: 1}
+
+A topic entry may keep ``rosnode info``'s type suffix: ``/pose [nav_msgs/Odometry]``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import yaml
+
+from rac.errors import Diagnostic, RacError
+
+INFRASTRUCTURE_TOPICS = frozenset({"/rosout", "/rosout_agg", "/parameter_events", "/clock"})
+_NODE_KEYS = {
+    "publications": "publications",
+    "publishers": "publications",
+    "subscriptions": "subscriptions",
+    "subscribers": "subscriptions",
+    "drives": "drives",
+}
+
+
+@dataclass(frozen=True, slots=True)
+class GraphNode:
+    name: str
+    publications: tuple[str, ...]
+    subscriptions: tuple[str, ...]
+    drives: tuple[str, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class GraphHardware:
+    name: str
+    switchable: bool
+    channel: int | None
+
+
+@dataclass(frozen=True, slots=True)
+class Graph:
+    nodes: tuple[GraphNode, ...]
+    hardware: tuple[GraphHardware, ...]
+
+
+def _bad(path: str, why: str) -> RacError:
+    return RacError([Diagnostic("RAC081", f"{path}: {why}", hint="see docs/learning.md for the shape")])
+
+
+def _names(value: Any, path: str, where: str) -> tuple[str, ...]:
+    if value is None:
+        return ()
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise _bad(path, f"{where} must be a list of names")
+    # ``/pose [nav_msgs/Odometry]`` as rosnode info prints it; ``* /pose`` as pasted bullets.
+    cleaned = (v.strip().removeprefix("*").strip().split(" ")[0] for v in value)
+    return tuple(v for v in cleaned if v and v not in INFRASTRUCTURE_TOPICS)
+
+
+def parse_graph(text: str, path: str) -> Graph:
+    try:
+        doc = yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        raise _bad(path, f"not YAML: {err}") from None
+    if not isinstance(doc, dict) or not isinstance(doc.get("nodes"), dict):
+        raise _bad(path, "expected a mapping with a 'nodes' mapping")
+    unknown = set(doc) - {"nodes", "hardware"}
+    if unknown:
+        raise _bad(path, f"unknown keys {sorted(unknown)}")
+    nodes = []
+    for name, body in doc["nodes"].items():
+        body = body or {}
+        if not isinstance(body, dict):
+            raise _bad(path, f"node {name}: expected a mapping")
+        extra = set(body) - set(_NODE_KEYS)
+        if extra:
+            raise _bad(path, f"node {name}: unknown keys {sorted(extra)}")
+        lists: dict[str, tuple[str, ...]] = {"publications": (), "subscriptions": (), "drives": ()}
+        for key, value in body.items():
+            lists[_NODE_KEYS[key]] += _names(value, path, f"node {name}: {key}")
+        node_name = str(name).removeprefix("/")
+        nodes.append(GraphNode(node_name, lists["publications"], lists["subscriptions"], lists["drives"]))
+    hardware = []
+    for name, body in (doc.get("hardware") or {}).items():
+        body = body or {}
+        if not isinstance(body, dict) or set(body) - {"switchable", "channel"}:
+            raise _bad(path, f"hardware {name}: expected {{switchable: BOOL, channel: INT}}")
+        channel = body.get("channel")
+        if channel is not None and not isinstance(channel, int):
+            raise _bad(path, f"hardware {name}: channel must be an integer")
+        hardware.append(GraphHardware(str(name), bool(body.get("switchable", False)), channel))
+    return Graph(tuple(nodes), tuple(hardware))

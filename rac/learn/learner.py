@@ -1,0 +1,318 @@
+"""Learn a model from a recording (Algorithm 15) and assemble it as IR.
+
+The structure comes from a base model (kept as it is), a computation graph, or the
+recording alone; the learned parameters (rates, limits, related pairs) each carry a
+comment with their evidence.  Algorithm 18 (the clauses) is the compiler's job: the
+result is an ordinary model that ``compile_model`` turns into the diagnosis model.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from rac.ir import FieldRef, Hardware, Limits, Model, Name, Node, Publication, Related, Topic
+from rac.learn.correlate import correlations
+from rac.learn.frequency import RateStats, rate_stats
+from rac.learn.graph import Graph
+from rac.learn.options import LearnOptions
+from rac.learn.properties import PropertyStats
+from rac.learn.recording import Recording, TopicData
+from rac.learn.relations import LearnedRelation, group_relations
+from rac.learn.trends import topic_trends
+
+
+@dataclass(frozen=True, slots=True)
+class LearnResult:
+    model: Model
+    rates: tuple[RateStats, ...]
+    relations: tuple[LearnedRelation, ...]
+    properties: tuple[PropertyStats, ...]
+    notes: tuple[str, ...]  # what the inputs could not give, for stderr
+    options: LearnOptions = field(default_factory=LearnOptions)
+
+
+def _sig(value: float, digits: int) -> float:
+    return float(f"{value:.{digits}g}")
+
+
+def _ms(seconds: float) -> str:
+    return f"{seconds * 1e3:.4g} ms"
+
+
+def _rate_comment(s: RateStats, alpha: float) -> str:
+    verdict = f"> α {alpha:g}: regular" if s.regular else f"<= α {alpha:g}: irregular"
+    return (
+        f"learned from {s.samples} intervals: mean {_ms(s.mean)}, σ {_ms(s.stddev)}, "
+        f"mean/σ {s.ratio:.3g} {verdict}"
+    )
+
+
+def _learned_topic(topic: Topic, stats: RateStats | None, alpha: float) -> Topic:
+    """``topic`` with the learned rate and tolerance (or none) and the evidence comment."""
+    if stats is None:
+        note = "too few messages in the recording to learn a rate"
+        return replace(topic, comments=(*topic.comments, note))
+    comments = (*topic.comments, _rate_comment(stats, alpha))
+    if not stats.regular:
+        return replace(
+            topic,
+            rate_hz=None,
+            rate_tolerance_hz=None,
+            window_s=None,
+            mismatch_threshold=None,
+            comments=comments,
+        )
+    rate = _sig(stats.rate_hz, 6)
+    tolerance = min(_sig(stats.tolerance_hz, 3), rate * 0.999)
+    window = topic.window_s if topic.rate_hz is not None else None
+    mismatch = topic.mismatch_threshold if topic.rate_hz is not None else None
+    return replace(
+        topic,
+        rate_hz=rate,
+        rate_tolerance_hz=tolerance,
+        window_s=window,
+        mismatch_threshold=mismatch,
+        comments=comments,
+    )
+
+
+def _limits(node: Node, stats: Sequence[PropertyStats], sigmas: float) -> Node:
+    mine = {s.prop: s for s in stats if s.node == node.name.value}
+    if not mine:
+        return node
+    cpu, mem = node.limits.cpu, node.limits.mem
+    notes = []
+    if "cpu" in mine:
+        s = mine["cpu"]
+        cpu = math.ceil(s.limit(sigmas) * 100) / 100 or 0.01
+        notes.append(f"cpu mean {s.mean:.3g} % σ {s.stddev:.3g} max {s.maximum:.3g} -> {cpu:g} %")
+    if "mem" in mine:
+        s = mine["mem"]
+        mem = max(1000, math.ceil(s.limit(sigmas) / 1000) * 1000)
+        notes.append(
+            f"mem mean {s.mean / 1e6:.4g} MB σ {s.stddev / 1e6:.3g} MB max {s.maximum / 1e6:.4g} MB"
+            f" -> {mem / 1e6:g} MB"
+        )
+    samples = max(s.samples for s in mine.values())
+    comment = f"learned limits from {samples} samples (mean + {sigmas:g}σ, at least the max): "
+    comment += "; ".join(notes)
+    span = node.limits.span
+    return replace(node, limits=Limits(cpu, mem, span), comments=(*node.comments, comment))
+
+
+def _identifier(text: str) -> str:
+    name = re.sub(r"[^A-Za-z0-9_\-]", "_", text).strip("_-") or "learned"
+    return name if name[0].isalpha() or name[0] == "_" else f"r{name}"
+
+
+def _structure_from_graph(graph: Graph, recording: Recording) -> tuple[list[Node], list[Hardware]]:
+    nodes = []
+    for g in sorted(graph.nodes, key=lambda n: n.name):
+        subs = tuple(Name(t) for t in dict.fromkeys(g.subscriptions))
+        pubs = tuple(
+            Publication(Name(t), tuple(s for s in subs if s.value != t))
+            for t in dict.fromkeys(g.publications)
+        )
+        nodes.append(Node(Name(g.name), tuple(Name(h) for h in g.drives), subs, pubs))
+    declared = {h.name for h in graph.hardware}
+    hardware = [Hardware(Name(h.name), h.switchable, h.channel) for h in graph.hardware]
+    for h in sorted({d for g in graph.nodes for d in g.drives} - declared):
+        hardware.append(Hardware(Name(h)))
+    return nodes, hardware
+
+
+def _structure_from_recording(recording: Recording) -> list[Node]:
+    published: dict[str, list[str]] = {}
+    for t in recording.topics:
+        for n in t.publishers:
+            published.setdefault(n, []).append(t.name)
+    return [
+        Node(Name(n), publishes=tuple(Publication(Name(t)) for t in sorted(ts)))
+        for n, ts in sorted(published.items())
+    ]
+
+
+def _topic_from_recording(data: TopicData) -> Topic:
+    return Topic(Name(data.name), data.msg_type, tuple(Name(f) for f in data.fields))
+
+
+def learn(
+    recording: Recording,
+    options: LearnOptions,
+    *,
+    base: Model | None = None,
+    graph: Graph | None = None,
+    properties: Sequence[PropertyStats] = (),
+) -> LearnResult:
+    notes: list[str] = []
+    recorded = recording.topic_by_name()
+    # 1. Structure (Definition 9.2): nodes, hardware and the declared topics.
+    if base is not None:
+        nodes, hardware = list(base.nodes), list(base.hardware)
+        topics = list(base.topics)
+        ignored = sorted((set(recorded) | set(recording.skipped)) - {t.name.value for t in topics})
+        if ignored:
+            notes.append(f"recorded topics not in the base model, ignored: {', '.join(ignored)}")
+    else:
+        if graph is not None:
+            nodes, hardware = _structure_from_graph(graph, recording)
+        else:
+            nodes, hardware = _structure_from_recording(recording), []
+            notes.append(
+                "no --base or --graph: subscriptions, hardware and drivers are not in a "
+                "recording, so the model has none (give --base robot.ram or --graph graph.yaml)"
+            )
+            if not nodes:
+                notes.append(
+                    "the recording names no publishers (ROS 2 bags do not record them): the model "
+                    "has no nodes, so no rates or relations can be declared; they are in comments"
+                )
+        topics = [_topic_from_recording(recorded[n]) for n in sorted(recorded)]
+        known = set(recorded)
+        for node in nodes:
+            for t in [*(s.value for s in node.subscribes), *node.published_topics]:
+                if t not in known:
+                    known.add(t)
+                    topics.append(Topic(Name(t), comments=("not in the recording",)))
+                    notes.append(f"graph topic {t} is not in the recording: no rate learned")
+    published = {t for n in nodes for t in n.published_topics}
+    # 2. Frequency observers (Algorithm 15, lines 5-10).
+    rates: list[RateStats] = []
+    learned_topics: list[Topic] = []
+    trailing: list[str] = []
+    for topic in topics:
+        data = recorded.get(topic.name.value)
+        if data is None:
+            if base is not None:
+                notes.append(f"topic {topic.name.value} is not in the recording: kept as the base has it")
+            learned_topics.append(topic)
+            continue
+        stats = rate_stats(data, options.alpha)
+        if stats is not None:
+            rates.append(stats)
+        learned = _learned_topic(topic, stats, options.alpha)
+        if learned.rate_hz is not None and topic.name.value not in published:
+            trailing.append(f"{topic.name.value} @ {learned.rate_hz:g} Hz +- "
+                            f"{learned.rate_tolerance_hz:g} Hz (no publisher known, so not declared)")
+            learned = replace(learned, rate_hz=None, rate_tolerance_hz=None, window_s=None,
+                              mismatch_threshold=None)
+        learned_topics.append(learned)
+    # 3. Property observers (Algorithm 15, lines 11-14).
+    node_names = {n.name.value for n in nodes}
+    stray = sorted({s.node for s in properties} - node_names)
+    if stray:
+        notes.append(f"property samples of nodes not in the model, ignored: {', '.join(stray)}")
+    nodes = [_limits(n, properties, options.sigmas) for n in nodes]
+    # 4. Qualitative correlations (Algorithms 16 and 17), between published topics.
+    trends = []
+    for name in sorted(recorded):
+        t = topic_trends(recorded[name], options.occurrences, options.integrate)
+        if t is not None:
+            trends.append(t)
+    found = group_relations(correlations(trends, options.q, options.min_lift))
+    related: list[Related] = []
+    kept: list[LearnedRelation] = []
+    fields_needed: dict[str, list[str]] = {}
+    declared_topics = {t.name.value for t in learned_topics}
+    for rel in found:
+        if not {rel.a[0], rel.b[0]} <= published or not {rel.a[0], rel.b[0]} <= declared_topics:
+            trailing.append(f"relate {rel.a[0]}.{rel.a[1]} ~ {rel.b[0]}.{rel.b[1]}: "
+                            f"{rel.evidence()} (a topic has no known publisher)")
+            continue
+        related.append(Related(FieldRef(*rel.a), FieldRef(*rel.b), comments=(rel.evidence(),)))
+        kept.append(rel)
+        for topic_name, f in (rel.a, rel.b):
+            fields_needed.setdefault(topic_name, []).append(f)
+    learned_topics = [_with_fields(t, fields_needed.get(t.name.value, [])) for t in learned_topics]
+    if trailing:
+        trailing = ["learned but not declarable without publishers:", *trailing]
+    name = base.name.value if base is not None else options.name or _identifier(
+        re.sub(r"\.bag$", "", recording.runs[0].path.rstrip("/").rsplit("/", 1)[-1])
+    )
+    header = [
+        f"Learned by racc learn from {len(recording.runs)} run(s), {recording.messages} messages: "
+        + ", ".join(r.path for r in recording.runs),
+        f"α {options.alpha:g}, Q {options.q:g}, C {options.occurrences}; "
+        "review every learned value before use.",
+    ]
+    model = Model(
+        name=Name(name),
+        hardware=tuple(hardware),
+        topics=tuple(learned_topics),
+        nodes=tuple(nodes),
+        related=tuple(related),
+        intervals=base.intervals if base is not None else (),
+        comments=(*header, *(base.comments if base is not None else ())),
+        trailing_comments=tuple(trailing),
+    )
+    return LearnResult(model, tuple(rates), tuple(kept), tuple(properties), tuple(notes), options)
+
+
+def _with_fields(topic: Topic, needed: list[str]) -> Topic:
+    have = [f.value for f in topic.fields]
+    extra = sorted(set(needed) - set(have))
+    if not extra:
+        return topic
+    return replace(topic, fields=(*topic.fields, *(Name(f) for f in extra)))
+
+
+def observer_counts(model: Model) -> dict[str, int]:
+    """Observers per kind as Table 10.1 counts them."""
+    counts = {
+        "BiQObs": len(model.related),
+        "GObs": sum(1 for t in model.topics if t.regular),
+        "NObs": len(model.nodes),
+        "PObs_cpu": sum(1 for n in model.nodes if n.limits.cpu is not None),
+        "PObs_mem": sum(1 for n in model.nodes if n.limits.mem is not None),
+    }
+    counts["total"] = sum(counts.values())
+    return counts
+
+
+def report(result: LearnResult) -> dict[str, Any]:
+    """The ``--report`` JSON: parameters, counts per observer kind (Table 10.1), evidence."""
+    o = result.options
+    regular = {t.name.value: t for t in result.model.topics if t.regular}
+    return {
+        "format": "racc-learn-report/1",
+        "robot": result.model.name.value,
+        "parameters": {"alpha": o.alpha, "Q": o.q, "occurrences": o.occurrences,
+                       "min_lift": o.min_lift, "sigmas": o.sigmas},
+        "observers": observer_counts(result.model),
+        "topics": [
+            {
+                "topic": s.topic,
+                "intervals": s.samples,
+                "mean_interval_s": s.mean,
+                "stddev_s": s.stddev,
+                "ratio": s.ratio if math.isfinite(s.ratio) else None,
+                "regular": s.topic in regular,
+                "rate_hz": regular[s.topic].rate_hz if s.topic in regular else None,
+                "tolerance_hz": regular[s.topic].rate_tolerance_hz if s.topic in regular else None,
+            }
+            for s in result.rates
+        ],
+        "related": [
+            {
+                "a": f"{r.a[0]}.{r.a[1]}",
+                "b": f"{r.b[0]}.{r.b[1]}",
+                "integrated_only": r.integrated,
+                "variants": [
+                    {"a": v.a.text, "b": v.b.text, "ratio": v.ratio, "matches": v.matches,
+                     "checks": v.checks}
+                    for v in r.variants
+                ],
+            }
+            for r in result.relations
+        ],
+        "properties": [
+            {"node": p.node, "property": p.prop, "samples": p.samples, "mean": p.mean,
+             "stddev": p.stddev, "max": p.maximum}
+            for p in result.properties
+        ],
+        "notes": list(result.notes),
+    }

@@ -1,0 +1,83 @@
+"""Property observations (Definition 9.4) from a CSV of ``time,node,cpu,mem`` samples,
+and the limits they give (Algorithm 15, lines 11-14)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rac.errors import Diagnostic, RacError
+
+COLUMNS = ("time", "node", "cpu", "mem")
+
+
+@dataclass(frozen=True, slots=True)
+class PropertyStats:
+    node: str
+    prop: str  # cpu or mem
+    samples: int
+    mean: float
+    stddev: float
+    maximum: float
+
+    def limit(self, sigmas: float) -> float:
+        """mean + k·σ, never below the largest sample of the fault-free run."""
+        return max(self.mean + sigmas * self.stddev, self.maximum)
+
+
+def parse_properties(text: str, path: str) -> dict[str, dict[str, list[float]]]:
+    """node -> property -> samples; empty cells are missing samples."""
+
+    def bad(line: int, why: str) -> RacError:
+        hint = f"the file needs the header {','.join(COLUMNS)} and one sample per line"
+        return RacError([Diagnostic("RAC082", f"{path}:{line}: {why}", hint=hint)])
+
+    reader = csv.reader(io.StringIO(text))
+    header = next(reader, None)
+    if header is None or [h.strip() for h in header] != list(COLUMNS):
+        raise bad(1, f"expected the header '{','.join(COLUMNS)}'")
+    samples: dict[str, dict[str, list[float]]] = {}
+    for line, row in enumerate(reader, start=2):
+        if not row or all(not cell.strip() for cell in row):
+            continue
+        if len(row) != len(COLUMNS):
+            raise bad(line, f"expected {len(COLUMNS)} columns, found {len(row)}")
+        node = row[1].strip().removeprefix("/")
+        if not node:
+            raise bad(line, "empty node name")
+        per_node = samples.setdefault(node, {"cpu": [], "mem": []})
+        for prop, cell in (("cpu", row[2]), ("mem", row[3])):
+            if not cell.strip():
+                continue
+            try:
+                value = float(cell)
+            except ValueError:
+                raise bad(line, f"{prop} '{cell}' is not a number") from None
+            if not math.isfinite(value) or value < 0:
+                raise bad(line, f"{prop} must be a finite number >= 0, not {cell}")
+            per_node[prop].append(value)
+    return samples
+
+
+def property_stats(samples: dict[str, dict[str, list[float]]]) -> list[PropertyStats]:
+    out = []
+    for node in sorted(samples):
+        for prop in ("cpu", "mem"):
+            values = np.asarray(samples[node][prop], dtype=np.float64)
+            if values.size == 0:
+                continue
+            out.append(
+                PropertyStats(
+                    node,
+                    prop,
+                    int(values.size),
+                    float(values.mean()),
+                    float(values.std()),
+                    float(values.max()),
+                )
+            )
+    return out

@@ -1,0 +1,216 @@
+"""Read recorded runs (ROS 1 .bag files, ROS 2 bag directories) into numeric signals.
+
+Each run becomes one :class:`Run`: per topic the receive times and a matrix of the selected
+field values.  :func:`merge_runs` joins several runs into one training set (Algorithm 19).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+from rosbags.highlevel import AnyReader, AnyReaderError
+from rosbags.typesys.base import TypesysError
+
+from rac.errors import Diagnostic, RacError
+from rac.learn.fields import FieldSelector, FloatArray, extractor, layout_of
+
+IntArray = npt.NDArray[np.int64]
+_WRAPPING = frozenset({"yaw", "roll"})  # derived angles unwrapped into continuous signals
+
+
+@dataclass(frozen=True, slots=True)
+class TopicData:
+    """The communication of one topic (Definition 9.3) as arrays."""
+
+    name: str
+    msg_type: str  # as the model writes it: sensor_msgs/Imu
+    publishers: tuple[str, ...]  # node names from ROS 1 callerids; empty for ROS 2
+    times: FloatArray  # seconds from the start of the (merged) training set
+    segments: IntArray  # which run each message came from
+    fields: tuple[str, ...]
+    values: FloatArray  # shape (len(fields), len(times))
+
+    @property
+    def count(self) -> int:
+        return int(self.times.size)
+
+    def intervals(self) -> FloatArray:
+        """Δ between successive messages of one run; the seams between runs are left out."""
+        same_run = self.segments[1:] == self.segments[:-1]
+        return np.diff(self.times)[same_run]
+
+
+@dataclass(frozen=True, slots=True)
+class Run:
+    path: str
+    ros_version: int
+    start: float  # absolute seconds
+    end: float
+    topics: tuple[TopicData, ...]
+    messages: int
+    skipped: tuple[str, ...] = ()  # recorded topics that were not asked for
+
+
+@dataclass(frozen=True, slots=True)
+class Recording:
+    """One training set: the topics of every run, merged."""
+
+    runs: tuple[Run, ...]
+    topics: tuple[TopicData, ...]
+
+    @property
+    def messages(self) -> int:
+        return sum(r.messages for r in self.runs)
+
+    @property
+    def skipped(self) -> tuple[str, ...]:
+        return tuple(sorted({t for r in self.runs for t in r.skipped}))
+
+    def topic_by_name(self) -> dict[str, TopicData]:
+        return {t.name: t for t in self.topics}
+
+
+def model_type_name(msgtype: str) -> str:
+    """``sensor_msgs/msg/Imu`` -> ``sensor_msgs/Imu``, the spelling models use."""
+    return msgtype.replace("/msg/", "/")
+
+
+def _fail(path: str, why: str) -> RacError:
+    hint = "a RUN is a ROS 1 .bag file or a ROS 2 bag directory (sqlite3 or mcap)"
+    return RacError([Diagnostic("RAC080", f"{path}: cannot read the recording: {why}", hint=hint)])
+
+
+def read_run(path: str | Path, selector: FieldSelector, topics: frozenset[str] | None = None) -> Run:
+    """Every topic of one recording (or only ``topics``), with the fields ``selector`` wants."""
+    p = Path(path)
+    if not p.exists():
+        raise _fail(str(path), "no such file or directory")
+    try:
+        with AnyReader([p]) as reader:
+            return _read(reader, str(path), selector, topics)
+    except (AnyReaderError, TypesysError, OSError, ValueError, KeyError) as err:
+        raise _fail(str(path), str(err) or type(err).__name__) from None
+
+
+def _read(
+    reader: AnyReader, path: str, selector: FieldSelector, only: frozenset[str] | None
+) -> Run:
+    fielddefs = reader.typestore.fielddefs
+    connections = [c for c in reader.connections if only is None or c.topic in only]
+    types: dict[str, str] = {}
+    publishers: dict[str, set[str]] = {}
+    for conn in connections:
+        if types.setdefault(conn.topic, conn.msgtype) != conn.msgtype:
+            raise _fail(path, f"topic {conn.topic} is recorded with two types")
+        callerid = getattr(conn.ext, "callerid", None)
+        names = publishers.setdefault(conn.topic, set())
+        if callerid:
+            names.add(callerid.removeprefix("/"))
+    layouts = {t: layout_of(fielddefs, m, t, selector) for t, m in types.items()}
+    extract: dict[str, Callable[[object], tuple[float, ...]]] = {
+        t: extractor(lay) for t, lay in layouts.items() if not lay.empty
+    }
+    stamps: dict[str, list[int]] = {t: [] for t in types}
+    rows: dict[str, list[tuple[float, ...]]] = {t: [] for t in extract}
+    count = 0
+    for conn, stamp, raw in reader.messages(connections=connections):
+        count += 1
+        stamps[conn.topic].append(stamp)
+        get = extract.get(conn.topic)
+        if get is not None:
+            rows[conn.topic].append(get(reader.deserialize(raw, conn.msgtype)))
+    data = []
+    for name in sorted(types):
+        if not stamps[name]:
+            continue
+        times = np.asarray(stamps[name], dtype=np.float64) * 1e-9
+        lay = layouts[name]
+        values = np.asarray(rows.get(name, []), dtype=np.float64).reshape(len(times), -1).T
+        values = np.ascontiguousarray(values)
+        for i, f in enumerate(lay.fields):
+            if f in _WRAPPING and f in lay.euler and values.shape[1] > 1:
+                values[i] = np.unwrap(values[i])
+        data.append(
+            TopicData(
+                name=name,
+                msg_type=model_type_name(types[name]),
+                publishers=tuple(sorted(publishers[name])),
+                times=times,
+                segments=np.zeros(times.size, dtype=np.int64),
+                fields=lay.fields,
+                values=values,
+            )
+        )
+    if not data:
+        raise _fail(path, "it holds no messages")
+    start = min(float(t.times[0]) for t in data)
+    end = max(float(t.times[-1]) for t in data)
+    ros_version = 2 if reader.is2 else 1
+    skipped = tuple(sorted({c.topic for c in reader.connections} - set(types)))
+    return Run(path, ros_version, start, end, tuple(data), count, skipped)
+
+
+def merge_runs(runs: Sequence[Run]) -> Recording:
+    """Algorithm 19: shift each run to start where the previous one ended, then concatenate.
+
+    Times become seconds from the start of the first run.  Run i's messages are tagged
+    with segment i, so frequency statistics leave the seams out.
+    """
+    shift = runs[0].start
+    shifted: list[list[TopicData]] = []
+    for i, run in enumerate(runs):
+        if i:
+            shift += run.start - runs[i - 1].end
+        shifted.append([_shift(t, shift, i) for t in run.topics])
+    by_name: dict[str, list[TopicData]] = {}
+    for topics in shifted:
+        for t in topics:
+            by_name.setdefault(t.name, []).append(t)
+    merged = tuple(_concat(parts, runs) for _, parts in sorted(by_name.items()))
+    return Recording(tuple(runs), merged)
+
+
+def _shift(topic: TopicData, shift: float, segment: int) -> TopicData:
+    return TopicData(
+        topic.name,
+        topic.msg_type,
+        topic.publishers,
+        topic.times - shift,
+        np.full(topic.times.size, segment, dtype=np.int64),
+        topic.fields,
+        topic.values,
+    )
+
+
+def _concat(parts: list[TopicData], runs: Sequence[Run]) -> TopicData:
+    first = parts[0]
+    for other in parts[1:]:
+        if (other.msg_type, other.fields) != (first.msg_type, first.fields):
+            paths = ", ".join(r.path for r in runs)
+            msg = f"topic {first.name} has different types or fields across the runs ({paths})"
+            raise RacError([Diagnostic("RAC080", msg)])
+    if len(parts) == 1:
+        return first
+    values = np.concatenate([p.values for p in parts], axis=1)
+    for i, f in enumerate(first.fields):
+        if f in _WRAPPING:
+            values[i] = np.unwrap(values[i])
+    return TopicData(
+        first.name,
+        first.msg_type,
+        tuple(sorted({n for p in parts for n in p.publishers})),
+        np.concatenate([p.times for p in parts]),
+        np.concatenate([p.segments for p in parts]),
+        first.fields,
+        values,
+    )
+
+
+def read_recording(
+    paths: Sequence[str | Path], selector: FieldSelector, topics: frozenset[str] | None = None
+) -> Recording:
+    return merge_runs([read_run(p, selector, topics) for p in paths])

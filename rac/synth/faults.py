@@ -1,0 +1,58 @@
+"""Faults to inject into a synthetic recording (§10.2.1): ``KIND@T[+D]:TARGET``."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from rac.errors import Diagnostic, RacError
+from rac.ir import Model
+
+FAULT_KINDS = {
+    "slip": "topic",  # the odometry topic whose yaw leaves the IMU's
+    "crash": "node",  # the node whose topics stop
+    "freq": "topic",  # the topic published five times as often
+    "cpu": "node",  # the node whose CPU use rises (properties CSV)
+    "mem": "node",  # the node whose memory use doubles (properties CSV)
+}
+FREQ_FACTOR = 5.0
+_SPEC = re.compile(r"(?P<kind>[a-z]+)@(?P<t>[0-9.]+)(\+(?P<d>[0-9.]+))?:(?P<target>\S+)")
+
+
+@dataclass(frozen=True, slots=True)
+class Fault:
+    kind: str
+    start: float  # seconds from the start of the recording
+    duration: float | None  # None: until the end
+    target: str
+
+    def active(self, t: float) -> bool:
+        return t >= self.start and (self.duration is None or t < self.start + self.duration)
+
+    @property
+    def end(self) -> float:
+        return float("inf") if self.duration is None else self.start + self.duration
+
+
+def _bad(spec: str, why: str) -> RacError:
+    hint = "write KIND@T[+D]:TARGET, e.g. slip@60+10:/pose, crash@120:joy_node, freq@90:/scan"
+    return RacError([Diagnostic("RAC083", f"fault '{spec}': {why}", hint=hint)])
+
+
+def parse_fault(spec: str, model: Model) -> Fault:
+    match = _SPEC.fullmatch(spec.strip())
+    if match is None:
+        raise _bad(spec, "not of the form KIND@T[+D]:TARGET")
+    kind, target = match["kind"], match["target"]
+    if kind not in FAULT_KINDS:
+        raise _bad(spec, f"unknown kind '{kind}' (one of {', '.join(FAULT_KINDS)})")
+    names = model.topic_by_name() if FAULT_KINDS[kind] == "topic" else model.node_by_name()
+    if target not in names:
+        what = FAULT_KINDS[kind]
+        raise _bad(spec, f"the model has no {what} '{target}' (one of {', '.join(sorted(names))})")
+    try:
+        start = float(match["t"])
+        duration = float(match["d"]) if match["d"] else None
+    except ValueError:
+        raise _bad(spec, "T and D are seconds") from None
+    return Fault(kind, start, duration, target)

@@ -1,0 +1,213 @@
+"""Plan and write a synthetic recording of the robot a model describes (``racc synth``)."""
+
+from __future__ import annotations
+
+import heapq
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from rosbags.rosbag1 import Writer as Writer1
+from rosbags.rosbag2 import StoragePlugin
+from rosbags.rosbag2 import Writer as Writer2
+from rosbags.typesys.store import Typestore
+
+from rac.ir import Model
+from rac.learn.fields import FloatArray, quaternion_from_euler
+from rac.synth.faults import Fault
+from rac.synth.properties import properties_csv
+from rac.synth.sensors import Content, content, role_of
+from rac.synth.timing import publication_times
+from rac.synth.types import DTYPES, MessageFactory, leaf_types, new_typestore, resolve_type
+from rac.synth.world import simulate
+
+EPOCH_S = 1_600_000_000  # recordings start here (plus one hour per seed) in ROS time
+
+
+@dataclass(frozen=True, slots=True)
+class SynthOptions:
+    duration: float = 120.0
+    seed: int = 0
+    ros_version: int = 1
+    storage: str = "sqlite3"  # ROS 2 only: sqlite3 or mcap
+    faults: tuple[Fault, ...] = ()
+
+
+# (parent attribute path, attribute, value per message), ready to assign.
+Assignment = tuple[tuple[str, ...], str, list[Any]]
+
+
+@dataclass(frozen=True, slots=True)
+class PlannedTopic:
+    name: str
+    typename: str  # typestore name
+    publisher: str
+    times: FloatArray  # seconds from the start
+    content: Content
+    leaves: dict[str, str]
+    assignments: tuple[Assignment, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Plan:
+    options: SynthOptions
+    start_s: float
+    store: Typestore
+    topics: tuple[PlannedTopic, ...]
+    properties: str  # the CSV text
+    factory: MessageFactory
+
+    @property
+    def messages(self) -> int:
+        return sum(t.times.size for t in self.topics)
+
+
+def plan_recording(model: Model, options: SynthOptions) -> Plan:
+    """Everything to write, decided up front and deterministic for a seed."""
+    rng = np.random.default_rng(options.seed)
+    world = simulate(options.duration, rng, options.faults)
+    schedule = publication_times(model, options.duration, options.faults, rng)
+    store = new_typestore(options.ros_version)
+    publishers = model.publishers()
+    planned: list[PlannedTopic] = []
+    servos = 0
+    for topic in sorted(model.topics, key=lambda t: t.name.value):
+        name = topic.name.value
+        if name not in schedule:
+            continue
+        typename = resolve_type(topic, store)
+        leaves = leaf_types(store, typename)
+        role = role_of(topic)
+        times = schedule[name]
+        c = content(topic, role, times, world, rng, servos, leaves)
+        servos += role == "servo"
+        assignments = _assignments(c, leaves, times, float(EPOCH_S + 3600 * options.seed))
+        planned.append(
+            PlannedTopic(name, typename, publishers[name][0], times, c, leaves, assignments)
+        )
+    start = float(EPOCH_S + 3600 * options.seed)
+    csv = properties_csv(model, options.duration, options.faults, rng)
+    return Plan(options, start, store, tuple(planned), csv, MessageFactory(store))
+
+
+def _assign(path: str, values: list[Any]) -> Assignment:
+    parents, _, last = path.rpartition(".")
+    return (tuple(parents.split(".")) if parents else (), last, values)
+
+
+def _typed(values: FloatArray, base: str) -> list[Any]:
+    """Values as the Python numbers the serializer expects for ``base``."""
+    if base in ("float32", "float64"):
+        return [float(v) for v in values.tolist()]
+    if base == "bool":
+        return [bool(v) for v in (values > 0).tolist()]
+    rounded = np.rint(values)
+    if base.startswith("u") or base in ("byte", "char", "octet"):
+        rounded = np.maximum(rounded, 0)
+    return [int(v) for v in rounded.tolist()]
+
+
+def _assignments(
+    c: Content, leaves: dict[str, str], times: FloatArray, start_s: float
+) -> tuple[Assignment, ...]:
+    out: list[Assignment] = []
+    if "header.stamp.sec" in leaves:
+        stamps = np.rint((start_s + times) * 1e9).astype(np.int64)
+        out.append(_assign("header.stamp.sec", (stamps // 1_000_000_000).tolist()))
+        out.append(_assign("header.stamp.nanosec", (stamps % 1_000_000_000).tolist()))
+        out.append(_assign("header.frame_id", [c.frame_id] * times.size))
+        if "header.seq" in leaves:
+            out.append(_assign("header.seq", list(range(times.size))))
+    for path, values in c.scalars.items():
+        if path in leaves:
+            out.append(_assign(path, _typed(values, leaves[path])))
+    if c.orientation is not None and f"{c.orientation[0]}.w" in leaves:
+        path, yaw, pitch, roll = c.orientation
+        quaternion = quaternion_from_euler(yaw, pitch, roll)
+        for axis, values in zip("xyzw", quaternion, strict=True):
+            out.append(_assign(f"{path}.{axis}", [float(v) for v in values.tolist()]))
+    return tuple(out)
+
+
+def _set(msg: Any, path: str, value: Any) -> None:
+    if "." not in path:
+        setattr(msg, path, value)
+        return
+    parents, _, last = path.rpartition(".")
+    for p in parents.split("."):
+        msg = getattr(msg, p)
+    setattr(msg, last, value)
+
+
+def build_message(plan: Plan, topic: PlannedTopic, i: int) -> Any:
+    msg = plan.factory.new(topic.typename)
+    for parents, last, values in topic.assignments:
+        target = msg
+        for p in parents:
+            target = getattr(target, p)
+        setattr(target, last, values[i])
+    for path, array_at in topic.content.arrays.items():
+        base = topic.leaves.get(path + "[]")
+        if base is not None:
+            _set(msg, path, np.asarray(array_at(i), dtype=DTYPES[base]))
+    return msg
+
+
+def _in_time_order(plan: Plan) -> Iterator[tuple[int, int]]:
+    """(topic index, message index) of every message, by publication time."""
+
+    def stream(k: int, times: FloatArray) -> Iterator[tuple[float, int, int]]:
+        for i, t in enumerate(times.tolist()):
+            yield t, k, i
+
+    streams = [stream(k, topic.times) for k, topic in enumerate(plan.topics)]
+    for _, k, i in heapq.merge(*streams):
+        yield k, i
+
+
+def write_recording(plan: Plan, path: Path) -> int:
+    """Write the bag (a ROS 1 file or a ROS 2 directory) at a path that must not exist yet."""
+    store = plan.store
+    serialize = store.serialize_ros1 if plan.options.ros_version == 1 else store.serialize_cdr
+    count = 0
+    if plan.options.ros_version == 1:
+        with Writer1(path) as writer:
+            conns1 = [
+                writer.add_connection(t.name, t.typename, typestore=store, callerid=f"/{t.publisher}")
+                for t in plan.topics
+            ]
+            for k, i in _in_time_order(plan):
+                topic = plan.topics[k]
+                stamp = int(round((plan.start_s + float(topic.times[i])) * 1e9))
+                writer.write(conns1[k], stamp, serialize(build_message(plan, topic, i), topic.typename))
+                count += 1
+        return count
+    plugin = StoragePlugin.MCAP if plan.options.storage == "mcap" else StoragePlugin.SQLITE3
+    with Writer2(path, version=9, storage_plugin=plugin) as writer2:
+        conns2 = [writer2.add_connection(t.name, t.typename, typestore=store) for t in plan.topics]
+        for k, i in _in_time_order(plan):
+            topic = plan.topics[k]
+            stamp = int(round((plan.start_s + float(topic.times[i])) * 1e9))
+            writer2.write(conns2[k], stamp, serialize(build_message(plan, topic, i), topic.typename))
+            count += 1
+    return count
+
+
+def planned_rates(plan: Plan) -> dict[str, float]:
+    """The true mean rate of every topic as planned (for checks and reports)."""
+    return {
+        t.name: (t.times.size - 1) / float(t.times[-1] - t.times[0])
+        for t in plan.topics
+        if t.times.size > 1
+    }
+
+
+def fault_summary(faults: Sequence[Fault]) -> list[str]:
+    return [
+        f"{f.kind} at {f.start:g} s"
+        + (f" for {f.duration:g} s" if f.duration is not None else "")
+        + f" on {f.target}"
+        for f in faults
+    ]

@@ -1,0 +1,161 @@
+"""What each synthetic topic carries: the values of its fields at its publication times.
+
+A topic's role follows from its message type (odometry, IMU, laser scan, joystick,
+velocity command, map), or from its name for laser-alignment servos (``*servo*`` topics
+with an ``angle``: the first follows the IMU's pitch, the next its roll).  Every other
+topic carries smooth random signals of its own, unrelated to the motion and to each other.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from rac.ir import Topic
+from rac.learn.fields import FloatArray
+from rac.synth.world import MAX_SPEED, MAX_TURN, World
+
+ArrayAt = Callable[[int], npt.NDArray[np.generic]]
+SCAN_BEAMS = 181
+MAP_RESOLUTION = 0.25  # m per cell: keeps the synthetic map small
+SERVO_LAG_S = 0.1
+
+
+@dataclass(slots=True)
+class Content:
+    """Per-message field values of one topic (index i is the i-th publication)."""
+
+    scalars: dict[str, FloatArray] = field(default_factory=dict)
+    arrays: dict[str, ArrayAt] = field(default_factory=dict)
+    orientation: tuple[str, FloatArray, FloatArray, FloatArray] | None = None  # path, yaw, pitch, roll
+    frame_id: str = "base_link"
+
+
+def role_of(topic: Topic) -> str:
+    kind = (topic.msg_type or "").replace("/msg/", "/")
+    roles = {
+        "nav_msgs/Odometry": "odometry",
+        "sensor_msgs/Imu": "imu",
+        "sensor_msgs/LaserScan": "scan",
+        "sensor_msgs/Joy": "joy",
+        "geometry_msgs/Twist": "command",
+        "nav_msgs/OccupancyGrid": "map",
+    }
+    if kind in roles:
+        return roles[kind]
+    if "servo" in topic.name.value and any(f.value == "angle" for f in topic.fields):
+        return "servo"
+    return "random"
+
+
+def _noise(rng: np.random.Generator, n: int, sigma: float) -> FloatArray:
+    out: FloatArray = rng.normal(0.0, sigma, n)
+    return out
+
+
+def _smooth_random(rng: np.random.Generator, times: FloatArray) -> FloatArray:
+    """A sum of slow sinusoids with random periods, phases and amplitudes, plus noise."""
+    out = np.zeros_like(times)
+    for _ in range(4):
+        period = float(rng.uniform(5.0, 60.0))
+        out += float(rng.uniform(0.2, 1.0)) * np.sin(2 * np.pi * times / period + rng.uniform(0, 6.3))
+    return out + _noise(rng, times.size, 0.02) + float(rng.uniform(-5, 5))
+
+
+def _lagged(world: World, name: str, times: FloatArray, lag: float) -> FloatArray:
+    return world.at(name, np.maximum(times - lag, 0.0))
+
+
+def content(
+    topic: Topic,
+    role: str,
+    times: FloatArray,
+    world: World,
+    rng: np.random.Generator,
+    servo_index: int,
+    leaves: dict[str, str],
+) -> Content:
+    n = times.size
+    c = Content()
+    if role == "odometry":
+        yaw = world.at("yaw_odom", times)
+        # Odometry integrates the wheels: smooth pose, slightly noisy velocities.
+        c.scalars["pose.pose.position.x"] = world.at("x_odom", times)
+        c.scalars["pose.pose.position.y"] = world.at("y_odom", times)
+        c.scalars["twist.twist.linear.x"] = world.at("v", times) + _noise(rng, n, 0.005)
+        c.scalars["twist.twist.angular.z"] = world.at("w_odom", times) + _noise(rng, n, 0.005)
+        c.orientation = ("pose.pose.orientation", yaw, np.zeros(n), np.zeros(n))
+        c.frame_id = "odom"
+    elif role == "imu":
+        # The IMU's orientation comes out of its filter: a slow drift, little white noise;
+        # its gyro is raw and noisy.
+        drift = 0.01 * np.sin(2 * np.pi * times / 97.0 + float(rng.uniform(0, 6.3)))
+        yaw = world.at("yaw", times) + drift + _noise(rng, n, 0.0005)
+        pitch = world.at("pitch", times) + _noise(rng, n, 0.0005)
+        roll = world.at("roll", times) + _noise(rng, n, 0.0005)
+        c.orientation = ("orientation", yaw, pitch, roll)
+        c.scalars["angular_velocity.z"] = world.at("w", times) + _noise(rng, n, 0.02)
+        c.scalars["angular_velocity.x"] = _noise(rng, n, 0.02)
+        c.scalars["angular_velocity.y"] = _noise(rng, n, 0.02)
+        c.scalars["linear_acceleration.x"] = _noise(rng, n, 0.05)
+        c.scalars["linear_acceleration.y"] = _noise(rng, n, 0.05)
+        c.scalars["linear_acceleration.z"] = 9.81 + _noise(rng, n, 0.05)
+        c.frame_id = "imu_link"
+    elif role == "scan":
+        angles = np.linspace(-np.pi / 2, np.pi / 2, SCAN_BEAMS)
+        x = world.at("x", times)
+
+        def ranges(i: int) -> npt.NDArray[np.generic]:
+            base = 4.0 + 2.0 * np.cos(2 * angles + 0.3 * x[i])
+            return (base + rng.normal(0.0, 0.01, SCAN_BEAMS)).astype(np.float32)
+
+        c.arrays["ranges"] = ranges
+        c.arrays["intensities"] = lambda i: np.zeros(0, dtype=np.float32)
+        const = {
+            "angle_min": -np.pi / 2,
+            "angle_max": np.pi / 2,
+            "angle_increment": np.pi / (SCAN_BEAMS - 1),
+            "range_min": 0.1,
+            "range_max": 30.0,
+            "scan_time": 0.025,
+        }
+        c.scalars.update({k: np.full(n, v) for k, v in const.items()})
+        c.frame_id = "laser"
+    elif role == "joy":
+        turn = world.at("w_cmd", times) / MAX_TURN
+        speed = world.at("v_cmd", times) / MAX_SPEED
+        c.arrays["axes"] = lambda i: np.array([turn[i], speed[i], 0.0, 0.0], dtype=np.float32)
+        c.arrays["buttons"] = lambda i: np.array(
+            [int(abs(speed[i]) + abs(turn[i]) > 0)] + [0] * 7, dtype=np.int32
+        )
+    elif role == "command":
+        c.scalars["linear.x"] = world.at("v_cmd", times)
+        c.scalars["angular.z"] = world.at("w_cmd", times)
+    elif role == "map":
+        x, y = world.at("x", times), world.at("y", times)
+        span_x = np.maximum.accumulate(np.abs(x))
+        span_y = np.maximum.accumulate(np.abs(y))
+        width = (32 + 2 * span_x / MAP_RESOLUTION).astype(int)
+        height = (32 + 2 * span_y / MAP_RESOLUTION).astype(int)
+        c.scalars["info.width"] = width.astype(np.float64)
+        c.scalars["info.height"] = height.astype(np.float64)
+        c.scalars["info.resolution"] = np.full(n, MAP_RESOLUTION)
+        c.scalars["info.origin.position.x"] = -span_x - 4.0
+        c.scalars["info.origin.position.y"] = -span_y - 4.0
+        c.arrays["data"] = lambda i: np.zeros(int(width[i] * height[i]), dtype=np.int8)
+        c.frame_id = "map"
+    elif role == "servo":
+        source = "pitch" if servo_index % 2 == 0 else "roll"
+        c.scalars["angle"] = _lagged(world, source, times, SERVO_LAG_S) + _noise(rng, n, 0.0005)
+        for f in topic.fields:
+            if f.value != "angle":
+                c.scalars[f.value] = np.full(n, 0.5 if "neg" not in f.value else -0.5)
+    else:
+        for path in sorted(leaves):
+            if path.endswith("[]") or path.startswith("header."):
+                continue
+            c.scalars[path] = _smooth_random(rng, times)
+    return c
