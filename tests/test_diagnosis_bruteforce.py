@@ -11,7 +11,7 @@ from itertools import combinations
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from rac.diagnosis import Literal, Theory, collect, diagnose, is_consistent
+from rac.diagnosis import Literal, Theory, collect, compile_theory, diagnose, is_consistent
 from rac.diagnosis.theory import components_of
 from rac.logic import Atom, Clause
 
@@ -168,10 +168,32 @@ def test_agrees_with_brute_force_with_fault_modes(theory: Theory, obs: tuple[Lit
 def test_max_card_keeps_exactly_the_small_diagnoses(
     theory: Theory, obs: tuple[Literal, ...], max_card: int
 ) -> None:
-    diagnoses, _ = reference(theory, obs)
+    diagnoses, conflicts = reference(theory, obs)
     result = diagnose(theory, obs, max_card)
+    assert set(result.conflicts) <= set(conflicts)  # found ones are minimal conflicts
     assert list(result.diagnoses) == [d for d in diagnoses if len(d) <= max_card]
     if any(len(d) > max_card for d in diagnoses):
         assert result.bounded
     if not result.bounded:
         assert list(result.diagnoses) == diagnoses
+
+
+@settings(max_examples=100, deadline=None)
+@given(theories(fault_modes=True), observations, st.sets(st.sampled_from(COMPS)))
+def test_incremental_check_matches_definition(
+    theory: Theory, obs: tuple[Literal, ...], bad: set[str]
+) -> None:
+    """The delete-and-rederive check of one candidate agrees with a fixpoint from scratch."""
+    index = compile_theory(theory)
+    base, clash = index.base(obs)
+    if clash:
+        return
+    delta = frozenset(bad) & set(theory.components)
+    assumed = {Atom("AB", (c,)) for c in delta}
+    assumed |= {Atom("NAB", (c,)) for c in theory.components if c not in delta}
+    expected = not _closure_clashes(theory, _theta(obs) | assumed)
+    result = index.check(base, index.full(base), delta, strong=True)
+    assert (not result.clash) == expected
+    if result.clash:  # the traced support is itself contradictory
+        support = index.support(result)
+        assert index.run(base, sorted(support)).clash

@@ -22,7 +22,7 @@ from rac.synth import SynthOptions, plan_recording, write_recording
 ROOT = Path(__file__).resolve().parent.parent
 # Every robot model we ship; pioneer joins as soon as it exists.
 MODELS = [name for name in ("tedusar", "pioneer") if (ROOT / "models" / f"{name}.ram").exists()]
-DURATION = 90.0
+DURATION = 60.0
 
 
 @dataclass(frozen=True)
@@ -50,7 +50,9 @@ def _robot(name: str) -> Robot:
     return Robot(name, load_model(ROOT / "models" / f"{name}.ram"))
 
 
-def _record(robot: Robot, path: Path, seed: int, ros_version: int, storage: str = "sqlite3") -> Path:
+def _record(
+    robot: Robot, path: Path, seed: int, ros_version: int, storage: str = "sqlite3"
+) -> Path:
     options = SynthOptions(DURATION, seed, ros_version, storage)
     plan = plan_recording(robot.model, options)
     write_recording(plan, path)
@@ -117,7 +119,9 @@ def _check_learned(robot: Robot, result: LearnResult) -> None:
     compile_model(result.model)
 
 
-def test_learns_rates_and_the_yaw_relation_from_a_ros1_bag(robot: Robot, ros1_result: LearnResult) -> None:
+def test_learns_rates_and_the_yaw_relation_from_a_ros1_bag(
+    robot: Robot, ros1_result: LearnResult
+) -> None:
     _check_learned(robot, ros1_result)
 
 
@@ -135,7 +139,10 @@ def test_learns_the_same_from_a_ros2_mcap_bag(tmp_path: Path) -> None:
 
 
 def test_learns_from_two_merged_runs(
-    robot: Robot, ros1_run: Path, ros1_recording: Recording, tmp_path_factory: pytest.TempPathFactory
+    robot: Robot,
+    ros1_run: Path,
+    ros1_recording: Recording,
+    tmp_path_factory: pytest.TempPathFactory,
 ) -> None:
     second = _record(robot, tmp_path_factory.mktemp(f"{robot.name}-b") / "second.bag", 2, 1)
     recording = _read(robot, ros1_run, second)
@@ -154,12 +161,16 @@ def test_learns_from_two_merged_runs(
 
 def test_fewer_relations_for_higher_q(robot: Robot, ros1_recording: Recording) -> None:
     recording = ros1_recording
-    counts = [observer_counts(_learn(robot, recording, q=q).model)["BiQObs"] for q in (0.5, 0.8, 0.9)]
+    counts = [
+        observer_counts(_learn(robot, recording, q=q).model)["BiQObs"] for q in (0.5, 0.8, 0.9)
+    ]
     assert counts[0] >= counts[1] >= counts[2]
     assert counts[0] > counts[2]
 
 
-def test_fewer_frequency_observers_for_higher_alpha(robot: Robot, ros1_recording: Recording) -> None:
+def test_fewer_frequency_observers_for_higher_alpha(
+    robot: Robot, ros1_recording: Recording
+) -> None:
     recording = ros1_recording
     counts = [
         observer_counts(_learn(robot, recording, alpha=a).model)["GObs"] for a in (0.5, 2.5, 10.0)
@@ -271,8 +282,20 @@ def test_cli_learns_and_reports_table_10_1_counts(
     out, report = tmp_path / "learned.ram", tmp_path / "report.json"
     model_path = ROOT / "models" / f"{robot.name}.ram"
     csv_path = ros1_run.with_name(ros1_run.name + ".properties.csv")
-    args = ["learn", str(ros1_run), "--base", str(model_path), "-o", str(out),
-            "--properties", str(csv_path), "--report", str(report), "--include-fields", *SELECT]
+    args = [
+        "learn",
+        str(ros1_run),
+        "--base",
+        str(model_path),
+        "-o",
+        str(out),
+        "--properties",
+        str(csv_path),
+        "--report",
+        str(report),
+        "--include-fields",
+        *SELECT,
+    ]
     assert main(args) == 0
     doc = json.loads(report.read_text())
     learned = load_model(out)
@@ -293,7 +316,9 @@ def test_cli_rejects_bad_parameters(bad: list[str], ros1_run: Path, tmp_path: Pa
     assert exit_.value.code == 2
 
 
-def test_cli_reports_an_unreadable_recording(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_reports_an_unreadable_recording(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     junk = tmp_path / "junk.bag"
     junk.write_bytes(b"not a bag")
     assert main(["learn", str(junk), "-o", str(tmp_path / "x.ram")]) == 1

@@ -10,6 +10,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from pddl import parse_domain, parse_problem
 from test_repair_helpers import (
     EXAMPLE_7_3,
@@ -21,11 +23,13 @@ from test_repair_helpers import (
     theta,
 )
 
-from rac.diagnosis import Theory, diagnose, load_theory
+from rac.diagnosis import Literal, Theory, diagnose, load_theory
+from rac.logic import Atom
 from rac.repair import (
     InapplicableStep,
     Kind,
     NoRepairPlan,
+    RepairProblem,
     RepairSystem,
     check_plan,
     choose_bad,
@@ -289,3 +293,32 @@ def test_power_up_effects_in_simulation(theory: Theory) -> None:
     running = make_problem("tedusar", system, theta(theory, ("not on(jaguar)",)), ("jaguar",))
     after = simulate(running, (("power_up", "jaguar"),))
     assert "jaguar_node" in after.bad  # a still-running driver needs a restart after power-up
+
+
+@st.composite
+def repairable_problems(draw: st.DrawFn) -> RepairProblem:
+    """Small systems of nodes and devices, any drives, any state, any bad set."""
+    nodes = [f"n{i}" for i in range(draw(st.integers(1, 4)))]
+    devices = [f"d{i}" for i in range(draw(st.integers(0, 3)))]
+    pairs = [(n, d) for n in nodes for d in devices]
+    drives = draw(st.lists(st.sampled_from(pairs), unique=True)) if pairs else []
+    components = sorted([(n, Kind.NODE) for n in nodes] + [(d, Kind.DEVICE) for d in devices])
+    system = RepairSystem(tuple(components), tuple(sorted(drives)))
+    names = [c for c, _ in components]
+    off = draw(st.lists(st.sampled_from(names), unique=True))
+    bad = draw(st.lists(st.sampled_from(names), unique=True, min_size=1))
+    observed = [Literal(Atom("running" if c in nodes else "on", (c,)), False) for c in off]
+    return make_problem("prop", system, observed, bad)
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(repairable_problems())
+def test_every_repairable_problem_gets_a_valid_plan(problem: RepairProblem) -> None:
+    """Nodes and devices only: a plan always exists and repairs everything.
+
+    (test_simulation_agrees_with_unified_planning ties our semantics to the PDDL's.)
+    """
+    text = render_problem(problem)
+    domain = render_repair_domain("prop")
+    run = run_planner(domain, text, timeout_s=30)
+    assert check_plan(problem, run.plan).bad == frozenset()

@@ -247,3 +247,22 @@ def test_bad_planner_timeout_is_a_usage_error(value: str) -> None:
 def test_unknown_observation_is_an_input_error(capsys: pytest.CaptureFixture[str]) -> None:
     code, _, err = racc(capsys, "repair", str(TEDUSAR), "--obs", "ok(poze)")
     assert code == 1 and "RAC040" in err
+
+
+def test_scenario_on_a_model_yaml(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Kinds inferred from the clauses: the power-up plan is the .ram's, driver order included."""
+    from rac.pipeline import compile_model
+    from rac.targets import EmitOptions
+    from rac.targets.model_yaml import emit_model_yaml
+
+    theory = load_theory(str(TEDUSAR))
+    assert theory.model is not None
+    (tmp_path / "tedusar").mkdir()
+    path = tmp_path / "tedusar" / "model.yaml"
+    path.write_text(emit_model_yaml(compile_model(theory.model), EmitOptions()), encoding="utf-8")
+    code, out, _ = racc(capsys, "scenario", str(path), "power-up", "--json")
+    doc = json.loads(out)
+    assert code == 0 and doc["diagnosis"]["bad"] == list(theory.components)
+    plan = [tuple(step) for step in doc["plan"]]
+    assert plan.index(("power_up", "jaguar")) < plan.index(("start_node", "jaguar_node"))
+    assert len(plan) == 12

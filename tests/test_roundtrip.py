@@ -10,6 +10,7 @@ from typing import Any
 
 import pytest
 from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from ram_strategies import commented_models, models
 
 from rac.errors import RacError
@@ -204,3 +205,49 @@ def test_fmt_keeps_the_order_of_publications() -> None:
     assert [p.topic.value for p in model.nodes[0].publishes] == ["/b", "/c", "/a"]
     assert parse_ram(format_model(model)) == model
     assert format_model(model) == text
+
+
+# --- the two parsers agree ---------------------------------------------------------------------
+# parse_ram reads valid models with a hand-written fast path and falls back to Lark, the
+# definition of the language; both must build the same IR, spans and comments included.
+
+
+def _lark_and_fast(text: str) -> tuple[str, str | None]:
+    from rac.fastparse import Bail, fast_parse
+    from rac.parse import _attach_comments, _parse_with_lark
+
+    lark = _attach_comments(*_parse_with_lark(text, "m.ram"))
+    try:
+        fast = _attach_comments(*fast_parse(text, "m.ram"))
+    except Bail:
+        return repr(lark), None
+    return repr(lark), repr(fast)
+
+
+@st.composite
+def _respaced(draw: st.DrawFn) -> str:
+    """A valid model's text with its line breaks and blanks shuffled (comments kept intact)."""
+    model = draw(st.one_of(models(), commented_models()))
+    out = []
+    for line in format_model(model).split("\n"):
+        if "#" not in line:
+            line = line.replace(" ", draw(st.sampled_from([" ", "  ", "\t"])))
+        out.append(line + draw(st.sampled_from(["\n", "\n\n", "\n  "])))
+    text = "".join(out)
+    if "#" not in text and draw(st.booleans()):
+        text = text.replace("\n", " ")
+    return text
+
+
+@SETTINGS
+@given(_respaced())
+def test_fast_parser_builds_what_lark_builds(text: str) -> None:
+    lark, fast = _lark_and_fast(text)
+    if fast is not None:
+        assert fast == lark
+
+
+@pytest.mark.parametrize("path", MODELS, ids=lambda p: p.stem)
+def test_fast_parser_reads_the_examples(path: Path) -> None:
+    lark, fast = _lark_and_fast(path.read_text(encoding="utf-8"))
+    assert fast == lark

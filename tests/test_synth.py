@@ -38,8 +38,13 @@ def clean_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="module")
 def faulty_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    faults = ("slip@30:/pose", "crash@40:joy_node", "freq@20+20:/scan", "cpu@10+10:imu_node",
-              "mem@50:hector_mapping")
+    faults = (
+        "slip@30:/pose",
+        "crash@40:joy_node",
+        "freq@20+20:/scan",
+        "cpu@10+10:imu_node",
+        "mem@50:hector_mapping",
+    )
     return _synth(tmp_path_factory.mktemp("synth") / "faulty.bag", seed=3, faults=faults)
 
 
@@ -114,7 +119,9 @@ def test_faults_show_in_the_recording_and_the_properties(faulty_bag: Path) -> No
     scan = topics["/scan"].times
     assert np.sum((scan >= 20) & (scan < 40)) == pytest.approx(5 * 40 * 20, rel=0.05)
     assert np.sum((scan >= 45) & (scan < 55)) == pytest.approx(40 * 10, rel=0.05)
-    rows = [line.split(",") for line in (faulty_bag.parent / "faulty.bag.csv").read_text().split()[1:]]
+    rows = [
+        line.split(",") for line in (faulty_bag.parent / "faulty.bag.csv").read_text().split()[1:]
+    ]
     cpu = [(float(t), float(c)) for t, n, c, _ in rows if n == "imu_node"]
     assert min(c for t, c in cpu if 10 <= t < 20) >= 25 > max(c for t, c in cpu if t < 10)
     mem = [(float(t), float(m)) for t, n, _, m in rows if n == "hector_mapping"]

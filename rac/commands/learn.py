@@ -159,8 +159,12 @@ def run(args: argparse.Namespace) -> int:
     if args.report:
         doc = report(result)
         doc["runs"] = [
-            {"path": r.path, "ros_version": r.ros_version, "messages": r.messages,
-             "duration_s": r.end - r.start}
+            {
+                "path": r.path,
+                "ros_version": r.ros_version,
+                "messages": r.messages,
+                "duration_s": r.end - r.start,
+            }
             for r in recording.runs
         ]
         doc["timing"] = {"read_s": read_s, "total_s": total_s}

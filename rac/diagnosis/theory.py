@@ -68,7 +68,7 @@ def components_of(clauses: Iterable[Clause], ab: str = AB, nab: str = NAB) -> tu
 def load_theory(path: str) -> Theory:
     """A theory from a ``.ram``/``.json`` model (compiled) or a ``.yaml``/``.yml`` file."""
     if path.endswith((".yaml", ".yml")):
-        from rac.diagnosis.model_yaml import parse_model_yaml
+        from rac.diagnosis.model_yaml import parse_model_yaml  # it imports Theory from here
 
         return parse_model_yaml(read_text(path), path)
     compiled = compile_model(load_model(path))

@@ -47,7 +47,9 @@ class Correlation:
         return self.matches / self.checks if self.checks else 0.0
 
 
-def interpolate(times: npt.NDArray[np.float64], other: TopicTrends) -> tuple[Codes, npt.NDArray[np.bool_]]:
+def interpolate(
+    times: npt.NDArray[np.float64], other: TopicTrends
+) -> tuple[Codes, npt.NDArray[np.bool_]]:
     """``other``'s symbols at ``times`` by Table 9.1, and which times lie inside its span."""
     after = np.searchsorted(other.times, times, side="right")
     inside = (after > 0) & (after < other.times.size)
@@ -94,7 +96,8 @@ def _admissible(x: TopicTrends, y: TopicTrends) -> npt.NDArray[np.bool_]:
         xf = np.array([s.field for s in x.signals])
         upper = np.triu(np.ones((xi.size, xi.size), dtype=bool), k=1)
         ok &= upper & (xf[:, None] != xf[None, :])
-    return ok
+    out: npt.NDArray[np.bool_] = ok
+    return out
 
 
 def _frequencies(t: TopicTrends) -> npt.NDArray[np.float64]:

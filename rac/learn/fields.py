@@ -16,8 +16,7 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-
-from rosbags.typesys.base import Nodetype
+from rosbags.interfaces import Nodetype
 
 NUMERIC_TYPES = frozenset(
     {"bool", "byte", "char", "int8", "int16", "int32", "int64", "uint8", "uint16", "uint32"}
@@ -104,9 +103,13 @@ def layout_of(
 ) -> Layout:
     leaves = _walk(fielddefs, typename, "", False)
     scalars = tuple(
-        p for p, kind, hdr in leaves if kind == "scalar" and selector.wanted(topic, p, plain=not hdr)
+        p
+        for p, kind, hdr in leaves
+        if kind == "scalar" and selector.wanted(topic, p, plain=not hdr)
     )
-    arrays = tuple(p for p, kind, _ in leaves if kind == "array" and selector.wanted(topic, p, plain=False))
+    arrays = tuple(
+        p for p, kind, _ in leaves if kind == "array" and selector.wanted(topic, p, plain=False)
+    )
     quaternions = [p for p, kind, hdr in leaves if kind == "quaternion" and not hdr]
     quaternion = quaternions[0] if quaternions else None
     top_level = {p for p, _, _ in leaves if "." not in p}

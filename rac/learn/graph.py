@@ -54,7 +54,9 @@ class Graph:
 
 
 def _bad(path: str, why: str) -> RacError:
-    return RacError([Diagnostic("RAC081", f"{path}: {why}", hint="see docs/learning.md for the shape")])
+    return RacError(
+        [Diagnostic("RAC081", f"{path}: {why}", hint="see docs/learning.md for the shape")]
+    )
 
 
 def _names(value: Any, path: str, where: str) -> tuple[str, ...]:
@@ -89,7 +91,9 @@ def parse_graph(text: str, path: str) -> Graph:
         for key, value in body.items():
             lists[_NODE_KEYS[key]] += _names(value, path, f"node {name}: {key}")
         node_name = str(name).removeprefix("/")
-        nodes.append(GraphNode(node_name, lists["publications"], lists["subscriptions"], lists["drives"]))
+        nodes.append(
+            GraphNode(node_name, lists["publications"], lists["subscriptions"], lists["drives"])
+        )
     hardware = []
     for name, body in (doc.get("hardware") or {}).items():
         body = body or {}

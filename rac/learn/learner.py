@@ -188,7 +188,9 @@ def learn(
         data = recorded.get(topic.name.value)
         if data is None:
             if base is not None:
-                notes.append(f"topic {topic.name.value} is not in the recording: kept as the base has it")
+                notes.append(
+                    f"topic {topic.name.value} is not in the recording: kept as the base has it"
+                )
             learned_topics.append(topic)
             continue
         stats = rate_stats(data, options.alpha)
@@ -196,10 +198,17 @@ def learn(
             rates.append(stats)
         learned = _learned_topic(topic, stats, options.alpha)
         if learned.rate_hz is not None and topic.name.value not in published:
-            trailing.append(f"{topic.name.value} @ {learned.rate_hz:g} Hz +- "
-                            f"{learned.rate_tolerance_hz:g} Hz (no publisher known, so not declared)")
-            learned = replace(learned, rate_hz=None, rate_tolerance_hz=None, window_s=None,
-                              mismatch_threshold=None)
+            trailing.append(
+                f"{topic.name.value} @ {learned.rate_hz:g} Hz +- "
+                f"{learned.rate_tolerance_hz:g} Hz (no publisher known, so not declared)"
+            )
+            learned = replace(
+                learned,
+                rate_hz=None,
+                rate_tolerance_hz=None,
+                window_s=None,
+                mismatch_threshold=None,
+            )
         learned_topics.append(learned)
     # 3. Property observers (Algorithm 15, lines 11-14).
     node_names = {n.name.value for n in nodes}
@@ -210,9 +219,9 @@ def learn(
     # 4. Qualitative correlations (Algorithms 16 and 17), between published topics.
     trends = []
     for name in sorted(recorded):
-        t = topic_trends(recorded[name], options.occurrences, options.integrate)
-        if t is not None:
-            trends.append(t)
+        topic_trend = topic_trends(recorded[name], options.occurrences, options.integrate)
+        if topic_trend is not None:
+            trends.append(topic_trend)
     found = group_relations(correlations(trends, options.q, options.min_lift))
     related: list[Related] = []
     kept: list[LearnedRelation] = []
@@ -220,8 +229,10 @@ def learn(
     declared_topics = {t.name.value for t in learned_topics}
     for rel in found:
         if not {rel.a[0], rel.b[0]} <= published or not {rel.a[0], rel.b[0]} <= declared_topics:
-            trailing.append(f"relate {rel.a[0]}.{rel.a[1]} ~ {rel.b[0]}.{rel.b[1]}: "
-                            f"{rel.evidence()} (a topic has no known publisher)")
+            trailing.append(
+                f"relate {rel.a[0]}.{rel.a[1]} ~ {rel.b[0]}.{rel.b[1]}: "
+                f"{rel.evidence()} (a topic has no known publisher)"
+            )
             continue
         related.append(Related(FieldRef(*rel.a), FieldRef(*rel.b), comments=(rel.evidence(),)))
         kept.append(rel)
@@ -230,8 +241,11 @@ def learn(
     learned_topics = [_with_fields(t, fields_needed.get(t.name.value, [])) for t in learned_topics]
     if trailing:
         trailing = ["learned but not declarable without publishers:", *trailing]
-    name = base.name.value if base is not None else options.name or _identifier(
-        re.sub(r"\.bag$", "", recording.runs[0].path.rstrip("/").rsplit("/", 1)[-1])
+    name = (
+        base.name.value
+        if base is not None
+        else options.name
+        or _identifier(re.sub(r"\.bag$", "", recording.runs[0].path.rstrip("/").rsplit("/", 1)[-1]))
     )
     header = [
         f"Learned by racc learn from {len(recording.runs)} run(s), {recording.messages} messages: "
@@ -280,8 +294,13 @@ def report(result: LearnResult) -> dict[str, Any]:
     return {
         "format": "racc-learn-report/1",
         "robot": result.model.name.value,
-        "parameters": {"alpha": o.alpha, "Q": o.q, "occurrences": o.occurrences,
-                       "min_lift": o.min_lift, "sigmas": o.sigmas},
+        "parameters": {
+            "alpha": o.alpha,
+            "Q": o.q,
+            "occurrences": o.occurrences,
+            "min_lift": o.min_lift,
+            "sigmas": o.sigmas,
+        },
         "observers": observer_counts(result.model),
         "topics": [
             {
@@ -302,16 +321,27 @@ def report(result: LearnResult) -> dict[str, Any]:
                 "b": f"{r.b[0]}.{r.b[1]}",
                 "integrated_only": r.integrated,
                 "variants": [
-                    {"a": v.a.text, "b": v.b.text, "ratio": v.ratio, "matches": v.matches,
-                     "checks": v.checks}
+                    {
+                        "a": v.a.text,
+                        "b": v.b.text,
+                        "ratio": v.ratio,
+                        "matches": v.matches,
+                        "checks": v.checks,
+                    }
                     for v in r.variants
                 ],
             }
             for r in result.relations
         ],
         "properties": [
-            {"node": p.node, "property": p.prop, "samples": p.samples, "mean": p.mean,
-             "stddev": p.stddev, "max": p.maximum}
+            {
+                "node": p.node,
+                "property": p.prop,
+                "samples": p.samples,
+                "mean": p.mean,
+                "stddev": p.stddev,
+                "max": p.maximum,
+            }
             for p in result.properties
         ],
         "notes": list(result.notes),

@@ -41,7 +41,8 @@ class TopicData:
     def intervals(self) -> FloatArray:
         """Δ between successive messages of one run; the seams between runs are left out."""
         same_run = self.segments[1:] == self.segments[:-1]
-        return np.diff(self.times)[same_run]
+        deltas: FloatArray = np.diff(self.times)[same_run]
+        return deltas
 
 
 @dataclass(frozen=True, slots=True)
@@ -84,7 +85,9 @@ def _fail(path: str, why: str) -> RacError:
     return RacError([Diagnostic("RAC080", f"{path}: cannot read the recording: {why}", hint=hint)])
 
 
-def read_run(path: str | Path, selector: FieldSelector, topics: frozenset[str] | None = None) -> Run:
+def read_run(
+    path: str | Path, selector: FieldSelector, topics: frozenset[str] | None = None
+) -> Run:
     """Every topic of one recording (or only ``topics``), with the fields ``selector`` wants."""
     p = Path(path)
     if not p.exists():

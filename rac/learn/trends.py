@@ -48,7 +48,9 @@ class TopicTrends:
     window_s: float
 
 
-def window_bounds(times: FloatArray, half: float) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
+def window_bounds(
+    times: FloatArray, half: float
+) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
     lo = np.searchsorted(times, times - half, side="left")
     hi = np.searchsorted(times, times + half, side="right")
     return lo, hi
@@ -62,7 +64,7 @@ def windowed_slopes(
     v = values - values.mean(axis=1, keepdims=True)
 
     def window(x: FloatArray) -> FloatArray:
-        c = np.concatenate([np.zeros(x.shape[:-1] + (1,)), np.cumsum(x, axis=-1)], axis=-1)
+        c = np.concatenate([np.zeros((*x.shape[:-1], 1)), np.cumsum(x, axis=-1)], axis=-1)
         out: FloatArray = c[..., hi] - c[..., lo]
         return out
 
@@ -99,7 +101,8 @@ def classify(s1: FloatArray, s2: FloatArray, s3: FloatArray) -> Codes:
     codes[s1 > b_plus] = INCREASING
     codes[s1 < b_minus] = DECREASING
     # Forward fill the undecided (-1) samples; leading ones count as constant.
-    idx = np.where(codes >= 0, np.arange(codes.shape[1]), 0)
+    positions = np.arange(s1.shape[1])
+    idx = np.where(codes >= 0, positions[None, :], 0)
     np.maximum.accumulate(idx, axis=1, out=idx)
     filled = np.take_along_axis(codes, idx, axis=1)
     filled[filled < 0] = CONSTANT

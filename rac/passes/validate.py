@@ -231,6 +231,9 @@ def check_mangling(model: Model) -> Iterator[Diagnostic]:
     groups.append(("topic or reported device", [*(t.name for t in model.topics), *devices]))
     groups.extend((f"field of {t.name.value}", list(t.fields)) for t in model.topics)
     for kind, names in groups:
+        values = {n.value for n in names}
+        if len({mangle(v) for v in values}) == len(values):
+            continue  # every atom comes from one name: nothing clashes (the usual case)
         by_atom: dict[str, list[Name]] = defaultdict(list)
         for name in names:
             by_atom[mangle(name.value)].append(name)

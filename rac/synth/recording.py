@@ -175,13 +175,17 @@ def write_recording(plan: Plan, path: Path) -> int:
     if plan.options.ros_version == 1:
         with Writer1(path) as writer:
             conns1 = [
-                writer.add_connection(t.name, t.typename, typestore=store, callerid=f"/{t.publisher}")
+                writer.add_connection(
+                    t.name, t.typename, typestore=store, callerid=f"/{t.publisher}"
+                )
                 for t in plan.topics
             ]
             for k, i in _in_time_order(plan):
                 topic = plan.topics[k]
-                stamp = int(round((plan.start_s + float(topic.times[i])) * 1e9))
-                writer.write(conns1[k], stamp, serialize(build_message(plan, topic, i), topic.typename))
+                stamp = round((plan.start_s + float(topic.times[i])) * 1e9)
+                writer.write(
+                    conns1[k], stamp, serialize(build_message(plan, topic, i), topic.typename)
+                )
                 count += 1
         return count
     plugin = StoragePlugin.MCAP if plan.options.storage == "mcap" else StoragePlugin.SQLITE3
@@ -189,8 +193,10 @@ def write_recording(plan: Plan, path: Path) -> int:
         conns2 = [writer2.add_connection(t.name, t.typename, typestore=store) for t in plan.topics]
         for k, i in _in_time_order(plan):
             topic = plan.topics[k]
-            stamp = int(round((plan.start_s + float(topic.times[i])) * 1e9))
-            writer2.write(conns2[k], stamp, serialize(build_message(plan, topic, i), topic.typename))
+            stamp = round((plan.start_s + float(topic.times[i])) * 1e9)
+            writer2.write(
+                conns2[k], stamp, serialize(build_message(plan, topic, i), topic.typename)
+            )
             count += 1
     return count
 

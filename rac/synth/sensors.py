@@ -30,7 +30,9 @@ class Content:
 
     scalars: dict[str, FloatArray] = field(default_factory=dict)
     arrays: dict[str, ArrayAt] = field(default_factory=dict)
-    orientation: tuple[str, FloatArray, FloatArray, FloatArray] | None = None  # path, yaw, pitch, roll
+    orientation: tuple[str, FloatArray, FloatArray, FloatArray] | None = (
+        None  # path, yaw, pitch, roll
+    )
     frame_id: str = "base_link"
 
 
@@ -61,7 +63,9 @@ def _smooth_random(rng: np.random.Generator, times: FloatArray) -> FloatArray:
     out = np.zeros_like(times)
     for _ in range(4):
         period = float(rng.uniform(5.0, 60.0))
-        out += float(rng.uniform(0.2, 1.0)) * np.sin(2 * np.pi * times / period + rng.uniform(0, 6.3))
+        out += float(rng.uniform(0.2, 1.0)) * np.sin(
+            2 * np.pi * times / period + rng.uniform(0, 6.3)
+        )
     return out + _noise(rng, times.size, 0.02) + float(rng.uniform(-5, 5))
 
 
@@ -110,7 +114,10 @@ def content(
 
         def ranges(i: int) -> npt.NDArray[np.generic]:
             base = 4.0 + 2.0 * np.cos(2 * angles + 0.3 * x[i])
-            return (base + rng.normal(0.0, 0.01, SCAN_BEAMS)).astype(np.float32)
+            out: npt.NDArray[np.generic] = (base + rng.normal(0.0, 0.01, SCAN_BEAMS)).astype(
+                np.float32
+            )
+            return out
 
         c.arrays["ranges"] = ranges
         c.arrays["intensities"] = lambda i: np.zeros(0, dtype=np.float32)

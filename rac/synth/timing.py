@@ -23,7 +23,9 @@ DEFAULT_EVENT_RATE_HZ = 2.0
 REACTION_S = 0.002  # a node reacting to an input event publishes this much later
 
 
-def _ticks(rate: float, start: float, end: float, jitter: float, rng: np.random.Generator) -> FloatArray:
+def _ticks(
+    rate: float, start: float, end: float, jitter: float, rng: np.random.Generator
+) -> FloatArray:
     period = 1.0 / rate
     ticks = np.arange(start + period * float(rng.uniform(0, 1)), end, period)
     noise = np.clip(rng.normal(0.0, jitter * period, ticks.size), -0.45 * period, 0.45 * period)
@@ -60,7 +62,9 @@ def publication_times(
             events = [
                 i.value
                 for i in inputs
-                if i.value in publishers and i.value not in visiting and topics[i.value].rate_hz is None
+                if i.value in publishers
+                and i.value not in visiting
+                and topics[i.value].rate_hz is None
             ]
             if events:
                 parts = [schedule(topics[e], visiting | {name}) for e in events]
@@ -82,7 +86,12 @@ def publication_times(
 
 
 def _regular(
-    rate: float, name: str, duration: float, jitter: float, faults: Sequence[Fault], rng: np.random.Generator
+    rate: float,
+    name: str,
+    duration: float,
+    jitter: float,
+    faults: Sequence[Fault],
+    rng: np.random.Generator,
 ) -> FloatArray:
     times = _ticks(rate, 0.0, duration, jitter, rng)
     for f in faults:

@@ -11,8 +11,8 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from rosbags.interfaces import Nodetype
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-from rosbags.typesys.base import Nodetype
 from rosbags.typesys.store import Typestore
 
 from rac.ir import Topic
@@ -35,6 +35,12 @@ DTYPES = {
     "float32": np.float32,
     "float64": np.float64,
 }
+
+
+def field_defs(store: Typestore, typename: str) -> list[tuple[str, tuple[Any, Any]]]:
+    """The (name, (node type, detail)) fields of a type, loosely typed for walking."""
+    fields: list[tuple[str, tuple[Any, Any]]] = list(store.fielddefs[typename][1])
+    return fields
 
 
 def new_typestore(ros_version: int) -> Typestore:
@@ -79,9 +85,9 @@ def _register(name: str, fields: list[str], store: Typestore) -> None:
                 groups.setdefault(head, []).append(rest)
             elif f"float64 {head}" not in lines:
                 lines.append(f"float64 {head}")
-        for head, rest in groups.items():
+        for head, inner_paths in groups.items():
             sub = f"{typename}{_camel(head)}"
-            define(sub, rest)
+            define(sub, inner_paths)
             lines.append(f"{package}/{sub.rpartition('/')[2]} {head}")
         types.update(get_types_from_msg("\n".join(lines) + "\n", typename))
 
@@ -102,7 +108,7 @@ class MessageFactory:
         if recipe is not None:
             return recipe
         recipe = []
-        for name, (nodetype, detail) in self.store.fielddefs[typename][1]:
+        for name, (nodetype, detail) in field_defs(self.store, typename):
             if nodetype == Nodetype.BASE:
                 base = detail[0]
                 value: Any = "" if base == "string" else False if base == "bool" else 0
@@ -143,7 +149,7 @@ class MessageFactory:
 def leaf_types(store: Typestore, typename: str, prefix: str = "") -> dict[str, str]:
     """Dotted path -> base type of every numeric scalar, and ``path[]`` for numeric arrays."""
     out: dict[str, str] = {}
-    for name, (nodetype, detail) in store.fielddefs[typename][1]:
+    for name, (nodetype, detail) in field_defs(store, typename):
         path = prefix + name
         if nodetype == Nodetype.BASE and detail[0] in NUMERIC_TYPES:
             out[path] = detail[0]

@@ -69,7 +69,9 @@ def _lag(signal: FloatArray, dt: float, tau: float) -> FloatArray:
     return out
 
 
-def _bumps(rng: np.random.Generator, t: FloatArray, every: tuple[float, float], size: float) -> FloatArray:
+def _bumps(
+    rng: np.random.Generator, t: FloatArray, every: tuple[float, float], size: float
+) -> FloatArray:
     """Raised-cosine ramps of random sign, height and length at random times."""
     out = np.zeros_like(t)
     at = float(rng.uniform(*every))

@@ -16,7 +16,6 @@ import re
 from typing import Any
 
 import yaml
-from yaml.nodes import ScalarNode
 from yaml.resolver import Resolver
 
 WIDTH = 1000
@@ -24,8 +23,10 @@ WIDTH = 1000
 # ': ' or ' #', no leading, trailing or double space, no quote or special character.  The
 # implicit resolvers are asked separately (so 'on', 'null' or '1.5' are not plain strings).
 _PLAIN = re.compile(r"[A-Za-z_/][A-Za-z0-9_/().,:~+<>=\-]*(?: [A-Za-z0-9_/().,~+<>=\-]+)*")
-_STR_TAG = "tag:yaml.org,2002:str"
-_RESOLVER = Resolver()
+# PyYAML's implicit resolvers (bool, int, float, null, timestamp, ...), by first character.
+_RESOLVERS: dict[Any, list[tuple[str, re.Pattern[str]]]] = Resolver.yaml_implicit_resolvers
+_WILDCARD = _RESOLVERS.get(None, [])
+_LONG = WIDTH - 200  # below this length no line can reach the width
 
 
 class _NotSimple(Exception):
@@ -36,29 +37,32 @@ def dump(doc: dict[str, Any]) -> str:
     """``yaml.safe_dump(doc, sort_keys=False, default_flow_style=False, width=1000)``."""
     try:
         out: list[str] = []
+        if type(doc) is not dict:
+            raise _NotSimple
         _mapping(doc, "", "", out, {})
         return "".join(out)
     except _NotSimple:
         return yaml.safe_dump(doc, sort_keys=False, default_flow_style=False, width=WIDTH)
 
 
-def _string(value: str, cache: dict[str, str]) -> str:
-    text = cache.get(value)
-    if text is None:
-        if (
-            _PLAIN.fullmatch(value) is None
-            or value.endswith(":")
-            or ": " in value
-            or _RESOLVER.resolve(ScalarNode, value, (True, False)) != _STR_TAG  # type: ignore[no-untyped-call]
-        ):
+def _plain(value: str) -> str:
+    """``value`` when PyYAML writes it as a plain scalar that reads back as this string."""
+    if _PLAIN.fullmatch(value) is None or value.endswith(":") or ": " in value:
+        raise _NotSimple
+    for _tag, regexp in (*_RESOLVERS.get(value[0], ()), *_WILDCARD):
+        if regexp.match(value):
             raise _NotSimple
-        text = cache[value] = value
-    return text
+    return value
 
 
-def _float(value: float) -> str:
-    # SafeRepresenter.represent_float
-    if value != value or value in (float("inf"), float("-inf")):
+def _number(value: Any) -> str:
+    """SafeRepresenter's text for an int, float or bool (plain in the output)."""
+    kind = type(value)
+    if kind is int:
+        return str(value)
+    if kind is bool:
+        return "true" if value else "false"
+    if kind is not float or value != value or value in (float("inf"), float("-inf")):
         raise _NotSimple
     text = repr(value).lower()
     if "." not in text and "e" in text:
@@ -66,63 +70,67 @@ def _float(value: float) -> str:
     return text
 
 
-def _scalar(value: Any, cache: dict[str, str]) -> str:
-    kind = type(value)
-    if kind is str:
-        return _string(value, cache)
-    if kind is int:
-        return str(value)
-    if kind is float:
-        return _float(value)
-    if kind is bool:
-        return "true" if value else "false"
-    raise _NotSimple
-
-
-def _line(out: list[str], prefix: str, text: str) -> None:
+def _line(out: list[str], head: str, text: str) -> None:
     # Past the width PyYAML folds a plain scalar at a space; leave that to PyYAML.  A
     # scalar without spaces cannot be folded and stays on one line, however long.
-    if len(prefix) + len(text) >= WIDTH - 2 and " " in text:
+    if len(text) > _LONG and " " in text and len(head) + len(text) >= WIDTH - 2:
         raise _NotSimple
-    out.append(prefix + text + "\n")
+    out.append(head + text + "\n")
 
 
 def _mapping(
-    doc: dict[str, Any], indent: str, first: str, out: list[str], cache: dict[str, str]
+    doc: dict[Any, Any], indent: str, first: str, out: list[str], strings: dict[str, str]
 ) -> None:
-    """A block mapping whose keys start at ``indent``; the first key's line starts ``first``."""
+    """A block mapping whose keys start at ``indent``; the first key's line starts ``first``.
+
+    ``strings`` caches the text of every string already found plain.
+    """
     if not doc:
         raise _NotSimple
     lead = first
     for key, value in doc.items():
-        if type(key) is not str or len(key) > 120:
-            raise _NotSimple
-        head = lead + _string(key, cache)
+        k = strings.get(key)
+        if k is None:
+            if type(key) is not str or len(key) > 120:
+                raise _NotSimple
+            k = strings[key] = _plain(key)
+        head = lead + k
         lead = indent
         kind = type(value)
-        if kind is dict:
+        if kind is str:
+            text = strings.get(value)
+            if text is None:
+                text = strings[value] = _plain(value)
+            _line(out, head + ": ", text)
+        elif kind is dict:
             if not value:
-                _line(out, head, ": {}")
+                out.append(head + ": {}\n")
             else:
                 out.append(head + ":\n")
-                _mapping(value, indent + "  ", indent + "  ", out, cache)
+                _mapping(value, indent + "  ", indent + "  ", out, strings)
         elif kind is list:
             if not value:
-                _line(out, head, ": []")
+                out.append(head + ": []\n")
             else:
                 out.append(head + ":\n")
-                _sequence(value, indent, out, cache)
+                _sequence(value, indent, out, strings)
         else:
-            _line(out, head + ": ", _scalar(value, cache))
+            out.append(f"{head}: {_number(value)}\n")
 
 
-def _sequence(items: list[Any], indent: str, out: list[str], cache: dict[str, str]) -> None:
+def _sequence(items: list[Any], indent: str, out: list[str], strings: dict[str, str]) -> None:
     """An indentless block sequence under a mapping key at ``indent``."""
+    dash = indent + "- "
     for item in items:
         kind = type(item)
-        if kind is dict:
-            _mapping(item, indent + "  ", indent + "- ", out, cache)
+        if kind is str:
+            text = strings.get(item)
+            if text is None:
+                text = strings[item] = _plain(item)
+            _line(out, dash, text)
+        elif kind is dict:
+            _mapping(item, indent + "  ", dash, out, strings)
         elif kind is list:
             raise _NotSimple
         else:
-            _line(out, indent + "- ", _scalar(item, cache))
+            out.append(dash + _number(item) + "\n")
