@@ -18,7 +18,9 @@ from __future__ import annotations
 import argparse
 import gc
 import random
+import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -141,22 +143,41 @@ CLOCK = time.process_time
 
 
 def compile_once(text: str) -> tuple[dict[str, float], Compiled]:
-    """One compile of ``text`` through the steps of ``racc compile`` but the SVG, timed."""
+    """One compile of ``text`` through the steps of ``racc compile`` but the SVG, timed.
+
+    Each step is timed, and so is the whole run end to end: the garbage collector's work
+    between the steps belongs to the end-to-end figure, which is the one the bar is about.
+    """
     times: dict[str, float] = {}
     gc.collect()
+    start = CLOCK()
     model, times["parse"] = timed(lambda: parse_ram(text, "synthetic.ram"))
     # validate, derive the RBM and the observers, verify: rac.pipeline.compile_model.
     compiled, times["validate + derive"] = timed(lambda: compile_model(model))
     options = EmitOptions()
+    outputs: list[str] = []  # kept alive, as racc compile keeps them until it writes
     for target in targets():
         try:
-            _, times[f"emit {target.filename}"] = timed(lambda t=target: t.emit(compiled, options))
+            text_out, times[f"emit {target.filename}"] = timed(
+                lambda t=target: t.emit(compiled, options)
+            )
+            outputs.append(text_out)
         except Exception as err:  # a target under construction must not stop the figures
             print(f"    emit {target.filename} failed: {type(err).__name__}: {err}")
             times[f"emit {target.filename}"] = float("nan")
+    times["end to end"] = CLOCK() - start
     times["emit"] = sum(v for k, v in times.items() if k.startswith("emit "))
-    times["total"] = times["parse"] + times["validate + derive"] + times["emit"]
+    times["sum of steps"] = times["parse"] + times["validate + derive"] + times["emit"]
     return times, compiled
+
+
+def cli_compile(path: Path) -> float:
+    """Wall time of ``racc compile --no-svg`` in a fresh process (imports, files written)."""
+    with tempfile.TemporaryDirectory() as out:
+        command = [sys.executable, "-m", "rac", "compile", str(path), "-o", out, "--no-svg", "-q"]
+        start = time.perf_counter()
+        subprocess.run(command, check=True)
+        return time.perf_counter() - start
 
 
 def main() -> int:
@@ -165,42 +186,50 @@ def main() -> int:
     parser.add_argument("--repeat", type=int, default=3, help="best of N runs (default 3)")
     parser.add_argument("--write", metavar="DIR", help="also write the generated .ram files here")
     parser.add_argument("--wall", action="store_true", help="wall-clock instead of CPU time")
+    parser.add_argument("--no-cli", action="store_true", help="skip the racc compile runs")
     args = parser.parse_args()
     global CLOCK
     if args.wall:
         CLOCK = time.perf_counter
+    clock = "wall-clock" if args.wall else "CPU"
+    print(f"best of {args.repeat}, {clock} time; racc compile runs are wall-clock")
 
     # Warm up once: grammar load and template compilation are per process, not per model.
     compile_once(format_model(synthetic_model(20)))
 
     totals: dict[int, float] = {}
-    for size in args.sizes:
-        text = format_model(synthetic_model(size))
-        if args.write:
-            Path(args.write).mkdir(parents=True, exist_ok=True)
-            Path(args.write, f"synthetic{size}.ram").write_text(text, encoding="utf-8")
-        runs = [compile_once(text) for _ in range(max(1, args.repeat))]
-        best = min((r[0] for r in runs), key=lambda t: t["total"])
-        compiled = runs[0][1]
-        model = compiled.model
-        print(
-            f"{size:>6} nodes: {len(text) / 1024:8.1f} KiB, {len(model.topics)} topics, "
-            f"{len(model.hardware)} hardware, {len(compiled.rbm)} clauses, "
-            f"{len(compiled.observers)} observers"
-        )
-        for key in ("parse", "validate + derive"):
-            print(f"    {key:<28} {best[key] * 1000:9.1f} ms")
-        for key, value in best.items():
-            if key.startswith("emit "):
-                print(f"    {key:<28} {value * 1000:9.1f} ms")
-        print(f"    {'emit (all but svg)':<28} {best['emit'] * 1000:9.1f} ms")
-        print(f"    {'total':<28} {best['total'] * 1000:9.1f} ms")
-        totals[size] = best["total"]
+    with tempfile.TemporaryDirectory() as scratch:
+        for size in args.sizes:
+            text = format_model(synthetic_model(size))
+            directory = Path(args.write or scratch)
+            directory.mkdir(parents=True, exist_ok=True)
+            path = directory / f"synthetic{size}.ram"
+            path.write_text(text, encoding="utf-8")
+            runs = [compile_once(text) for _ in range(max(1, args.repeat))]
+            best = min((r[0] for r in runs), key=lambda t: t["end to end"])
+            compiled = runs[0][1]
+            del runs
+            model = compiled.model
+            print(
+                f"{size:>6} nodes: {len(text) / 1024:8.1f} KiB, {len(model.topics)} topics, "
+                f"{len(model.hardware)} hardware, {len(compiled.rbm)} clauses, "
+                f"{len(compiled.observers)} observers"
+            )
+            for key, value in best.items():
+                if key not in ("emit", "sum of steps", "end to end"):
+                    print(f"    {key:<30} {value * 1000:9.1f} ms")
+            for key in ("emit", "sum of steps", "end to end"):
+                label = "emit (all but svg)" if key == "emit" else key
+                print(f"    {label:<30} {best[key] * 1000:9.1f} ms")
+            if not args.no_cli:
+                print(f"    {'racc compile --no-svg':<30} {cli_compile(path) * 1000:9.1f} ms")
+            totals[size] = best["end to end"]
+            del compiled, model
     if 1000 in totals and 10000 in totals:
         ratio = totals[10000] / totals[1000]
-        print(f"10k/1k total time ratio: {ratio:.2f} (bar: <= 12)")
+        print(f"10k/1k end-to-end time ratio: {ratio:.2f} (bar: <= 12)")
         verdict = "under" if totals[10000] < 3.0 else "OVER"
-        print(f"10k total: {totals[10000]:.2f} s ({verdict} the 3 s bar)")
+        print(f"10k end to end: {totals[10000]:.2f} s ({verdict} the 3 s bar)")
     return 0
 
 

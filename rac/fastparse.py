@@ -9,10 +9,12 @@ text, and builds exactly the IR the Lark path builds: the same values, the same 
 comments.
 
 It is deliberately strict: whenever the input strays from what it can read with certainty
-(a syntax error, a name spelled like a keyword, a keyword glued to a following word), it
-raises :class:`Bail` and :func:`rac.parse.parse_ram` parses the text again with Lark, which
-then either accepts it or reports the error in its own words.  So the fast path can make
-compilation quicker but never changes what is accepted or what an error says.
+(a syntax error, a keyword glued to a following word, a list or a declaration that goes on
+past the end of its line in one of the one-line shortcuts), it raises :class:`Bail` and
+:func:`rac.parse.parse_ram` parses the text again with Lark, which then either accepts it or
+reports the error in its own words.  So the fast path makes compilation quicker but never
+changes what is accepted or what an error says; ``tests/test_fastparse.py`` checks it
+against Lark on the example models, odd layouts, mutants and random models.
 """
 
 from __future__ import annotations
@@ -47,6 +49,27 @@ _NUMBER = re.compile(r"[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?")
 _INT = re.compile(r"\d+")
 _WS = re.compile(r"[ \t\f\r\n]*")
 _COMMENT = re.compile(r"#[^\n]*")
+# Comma-separated runs of names or fields on one line (atomic groups: each item matches
+# exactly as the terminal alone would).
+_NAME_RUN = re.compile(rf"(?>{_NAME.pattern})(?:[ \t]*,[ \t]*(?>{_NAME.pattern}))*")
+_FIELD_RUN = re.compile(rf"(?>{_FIELD.pattern})(?:[ \t]*,[ \t]*(?>{_FIELD.pattern}))*")
+# A whole topic declaration on one line, each terminal in an atomic group so that it
+# matches exactly as the lexer would match it; keywords must end where a word ends.
+_END = r"(?![A-Za-z0-9_])"
+_TOPIC_OPTION = re.compile(
+    rf"(?:\+-|±)[ \t]*(?P<tolerance>(?>{_NUMBER.pattern}))[ \t]*Hz{_END}"
+    rf"|window{_END}[ \t]*(?P<window>(?>{_NUMBER.pattern}))[ \t]*(?P<unit>ms|s){_END}"
+    rf"|mismatch{_END}[ \t]*(?P<mismatch>(?>{_INT.pattern}))"
+)
+_TOPIC_LINE = re.compile(
+    rf"topic[ \t]+(?P<name>(?>{_NAME.pattern}))"
+    rf"(?:[ \t]*:[ \t]*(?P<type>(?>{_MSG_TYPE.pattern})))?"
+    rf"(?:[ \t]*\{{[ \t]*(?:(?P<fields>{_FIELD_RUN.pattern})[ \t]*(?:,[ \t]*)?)?\}})?"
+    rf"(?:[ \t]*@[ \t]*(?P<rate>(?>{_NUMBER.pattern}))[ \t]*Hz{_END}"
+    rf"(?P<options>(?:[ \t]*(?:{_TOPIC_OPTION.pattern}))*))?"
+    r"(?=[ \t]*(?:[\n#;]|\Z))"
+)
+_TOPIC_GOES_ON = frozenset(":{@+±")
 # Keywords are string terminals; reading a whole word and comparing it is stricter.
 _WORD = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _WORD_CHARS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_") - {""}
@@ -63,29 +86,25 @@ MEM_UNITS = {
     "GiB": 1024**3,
 }
 
-_KEYWORDS = frozenset(
-    [
-        "robot",
-        "hardware",
-        "switchable",
-        "channel",
-        "topic",
-        "Hz",
-        "window",
-        "mismatch",
-        "node",
-        "drives",
-        "subscribes",
-        "publishes",
-        "from",
-        "limits",
-        "cpu",
-        "mem",
-        "reports",
-        "relate",
-        "interval",
-        "within",
-    ]
+# Lark's contextual lexer reads a keyword as a name wherever only a name can come (after
+# 'node', in a list after ','), and this reader reads names exactly there, so a name spelled
+# like a keyword ('node from', 'publishes from from /a') is a name here too.
+
+
+# Node statements on one line.
+_LINE_END = r"(?=[ \t]*(?:[\n#;}]|\Z))"
+_STATEMENT_LINE = re.compile(
+    rf"(?P<kind>subscribes|publishes|reports)[ \t]+(?P<names>{_NAME_RUN.pattern})"
+    rf"(?:[ \t]+from[ \t]+(?P<inputs>{_NAME_RUN.pattern}))?{_LINE_END}"
+)
+_UNITS = "|".join(sorted(MEM_UNITS, key=len, reverse=True))
+_LIMIT = re.compile(
+    rf"cpu[ \t]+(?P<cpu>(?>{_NUMBER.pattern}))[ \t]*%"
+    rf"|mem[ \t]+(?P<mem>(?>{_NUMBER.pattern}))[ \t]*(?P<unit>{_UNITS}){_END}"
+)
+_ANY_LIMIT = re.sub(r"\(\?P<\w+>", "(?:", _LIMIT.pattern)
+_LIMITS_LINE = re.compile(
+    rf"limits[ \t]+(?P<limits>(?:{_ANY_LIMIT})(?:[ \t]*,[ \t]*(?:{_ANY_LIMIT}))*){_LINE_END}"
 )
 
 
@@ -169,8 +188,6 @@ class _Reader:
 
     def name(self) -> Name:
         value, span = self.spanned(_NAME)
-        if value in _KEYWORDS:
-            raise Bail
         return Name(value, span)
 
     def keyword(self, word: str) -> tuple[int, int]:
@@ -196,15 +213,50 @@ class _Reader:
     def span_from(self, start: tuple[int, int]) -> Span:
         return Span(self.path, start[0], start[1], self.last_line, self.last_col)
 
+    def run(
+        self,
+        pattern: re.Pattern[str],
+        item: re.Pattern[str],
+        names: list[Name],
+        where: tuple[int, int] | None = None,
+    ) -> None:
+        """Read ``A, B, C`` on one line in one go: the items of ``pattern``, a comma-separated
+        run of ``item`` tokens, which is exactly what reading them one by one would give.
+
+        With ``where``, the run was already matched there (on the current line) by a larger
+        pattern, and nothing is consumed."""
+        text, path = self.text, self.path
+        if where is None:
+            m = pattern.match(text, self.pos)
+            if m is None:
+                raise Bail
+            where = m.span()
+            self._take(m.end())
+        line, base = self.line, self.line_start - 1
+        for token in item.finditer(text, *where):
+            value = token.group()
+            names.append(
+                Name(value, Span(path, line, token.start() - base, line, token.end() - base))
+            )
+
+    def statement_line(self, m: re.Match[str]) -> tuple[str, list[Name]]:
+        """``subscribes``/``publishes``/``reports`` and its names, from one regex match."""
+        kind = m["kind"]
+        names: list[Name] = []
+        self.run(_NAME_RUN, _NAME, names, m.span("names"))
+        if m["inputs"] is not None and (kind != "publishes" or len(names) != 1):
+            raise Bail
+        return kind, names
+
     def name_list(self) -> tuple[Name, ...]:
-        names = [self.name()]
+        names: list[Name] = []
         while True:
+            self.run(_NAME_RUN, _NAME, names)
             self.skip()
             if self.peek_char() != ",":
                 return tuple(names)
             self.char(",")
             self.skip()
-            names.append(self.name())
 
     def number(self) -> float:
         return float(self.regex(_NUMBER))
@@ -275,6 +327,8 @@ class _Reader:
         return Hardware(name, switchable=switchable, channel=channel, span=self.span_from(start))
 
     def topic(self) -> Topic:
+        if (m := _TOPIC_LINE.match(self.text, self.pos)) is not None:
+            return self.topic_line(m)
         start = self.keyword("topic")
         self.skip()
         name = self.name()
@@ -291,8 +345,7 @@ class _Reader:
             self.skip()
             if self.peek_char() != "}":
                 while True:
-                    value, span = self.spanned(_FIELD)
-                    fields.append(Name(value, span))
+                    self.run(_FIELD_RUN, _FIELD, fields)
                     self.skip()
                     if self.peek_char() == ",":
                         self.char(",")
@@ -352,6 +405,46 @@ class _Reader:
             span=self.span_from(start),
         )
 
+    def topic_line(self, m: re.Match[str]) -> Topic:
+        """A topic declared on one line (the usual layout), read with one regex match."""
+        text, path = self.text, self.path
+        line, base = self.line, self.line_start - 1
+        start = (line, m.start() - base)
+        name_start, name_end = m.span("name")
+        name = Name(m["name"], Span(path, line, name_start - base, line, name_end - base))
+        fields: list[Name] = []
+        if m["fields"] is not None:
+            for token in _FIELD.finditer(text, *m.span("fields")):
+                value = token.group()
+                span = Span(path, line, token.start() - base, line, token.end() - base)
+                fields.append(Name(value, span))
+        options: dict[str, Any] = {}
+        if m["options"]:
+            for option in _TOPIC_OPTION.finditer(text, *m.span("options")):
+                if option["tolerance"] is not None:
+                    options["tolerance"] = float(option["tolerance"])
+                elif option["window"] is not None:
+                    scale = 1000.0 if option["unit"] == "ms" else 1.0
+                    options["window"] = float(option["window"]) / scale
+                else:
+                    options["mismatch"] = int(option["mismatch"])
+        self._take(m.end())
+        self.skip()
+        if self.peek_char() == ";":
+            self.char(";")
+        elif self.peek_char() in _TOPIC_GOES_ON or self.peek_word() in ("window", "mismatch"):
+            raise Bail  # the declaration continues on the next line: read it token by token
+        return Topic(
+            name,
+            msg_type=m["type"],
+            fields=tuple(fields),
+            rate_hz=float(m["rate"]) if m["rate"] is not None else None,
+            rate_tolerance_hz=options.get("tolerance"),
+            window_s=options.get("window"),
+            mismatch_threshold=options.get("mismatch"),
+            span=self.span_from(start),
+        )
+
     def node(self) -> Node:
         start = self.keyword("node")
         self.skip()
@@ -373,6 +466,47 @@ class _Reader:
                 if self.peek_char() == "}":
                     self.char("}")
                     break
+                if (m := _STATEMENT_LINE.match(self.text, self.pos)) is not None:
+                    statement, names = self.statement_line(m)
+                    if statement == "subscribes":
+                        subscribes.extend(names)
+                    elif statement == "reports":
+                        diagnostics.extend(names)
+                    elif m["inputs"] is not None:
+                        inputs: list[Name] = []
+                        self.run(_NAME_RUN, _NAME, inputs, m.span("inputs"))
+                        publishes.append(Publication(names[0], tuple(inputs)))
+                    else:
+                        publishes.extend(Publication(n) for n in names)
+                    self._take(m.end())
+                    self.skip()
+                    if self.peek_char() == "," or self.peek_word() == "from":
+                        raise Bail  # the statement goes on on the next line
+                    if self.peek_char() == ";":
+                        self.char(";")
+                    continue
+                if (m := _LIMITS_LINE.match(self.text, self.pos)) is not None:
+                    limits_start = (self.line, self.pos - self.line_start + 1)
+                    first_cpu: float | None = None
+                    first_mem: int | None = None
+                    for limit in _LIMIT.finditer(self.text, *m.span("limits")):
+                        if limit["cpu"] is not None:
+                            if first_cpu is None:
+                                first_cpu = float(limit["cpu"])
+                        elif first_mem is None:
+                            first_mem = round(float(limit["mem"]) * MEM_UNITS[limit["unit"]])
+                    self._take(m.end())
+                    self.skip()
+                    if self.peek_char() == ",":
+                        raise Bail  # the limits go on on the next line
+                    if self.peek_char() == ";":
+                        self.char(";")
+                    limits = Limits(
+                        cpu=first_cpu if first_cpu is not None else limits.cpu,
+                        mem=first_mem if first_mem is not None else limits.mem,
+                        span=self.span_from(limits_start),
+                    )
+                    continue
                 word = self.peek_word()
                 if word == "subscribes":
                     self.keyword(word)

@@ -110,8 +110,9 @@ def _check_learned(robot: Robot, result: LearnResult) -> None:
         if topic.rate_hz is None:
             assert got.rate_hz is None, topic.name.value
         else:
+            assert got.rate_hz is not None and got.rate_tolerance_hz is not None
             assert got.rate_hz == pytest.approx(topic.rate_hz, rel=0.02), topic.name.value
-            assert got.rate_tolerance_hz is not None and 0 < got.rate_tolerance_hz < got.rate_hz
+            assert 0 < got.rate_tolerance_hz < got.rate_hz
     related = _related(result)
     assert frozenset((f"{robot.imu}.yaw", f"{robot.odometry}.yaw")) in related
     # Heading and ground slope are independent in the synthetic world.
@@ -249,9 +250,9 @@ hardware:
 
 def test_graph_gives_the_structure(tmp_path: Path) -> None:
     tedusar = _robot("tedusar")
-    model = plan_recording(tedusar.model, SynthOptions(30, 5, 2))
+    plan = plan_recording(tedusar.model, SynthOptions(30, 5, 2))
     run = tmp_path / "g"
-    write_recording(model, run)
+    write_recording(plan, run)
     graph_file = tmp_path / "graph.yaml"
     graph_file.write_text(GRAPH)
     out = tmp_path / "learned.ram"

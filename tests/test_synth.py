@@ -56,7 +56,7 @@ def test_ros1_connections_name_the_publishing_node(clean_bag: Path) -> None:
     model = load_model(TEDUSAR)
     expected = {t: f"/{nodes[0]}" for t, nodes in model.publishers().items()}
     with Reader1(clean_bag) as reader:
-        found = {c.topic: c.ext.callerid for c in reader.connections}
+        found = {c.topic: getattr(c.ext, "callerid", None) for c in reader.connections}
     assert found == expected
 
 
@@ -155,6 +155,7 @@ def test_quaternion_round_trip() -> None:
         ("warp@10:/pose", "unknown kind"),
         ("crash@10:/pose", "no node"),
         ("freq@10:jaguar_node", "no topic"),
+        ("slip@10:/scan", "odometry"),
     ],
 )
 def test_bad_fault_specs_are_input_errors(spec: str, fragment: str) -> None:

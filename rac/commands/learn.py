@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import textwrap
 import time
 from pathlib import Path
 from typing import Any
@@ -32,13 +33,16 @@ def register(sub: Any) -> None:
         sub,
         "learn",
         "learn a model from recorded fault-free runs (rosbags)",
-        "Learn a robot model from one or more fault-free recordings: which topics are regular "
-        "(frequency observers with their rate and tolerance), node CPU and memory limits "
-        "(from --properties) and which fields are qualitatively related (binary qualitative "
-        "observers).  Several runs are merged into one training set (Algorithm 19).  The "
-        "structure (subscriptions, hardware, drivers) comes from --base or --graph; a ROS 1 "
-        "recording names each topic's publishers.  Every learned value carries a comment with "
-        "its evidence; the written model compiles.",
+        textwrap.fill(
+            "Learn a robot model from one or more fault-free recordings: which topics are regular "
+            "(frequency observers with their rate and tolerance), node CPU and memory limits "
+            "(from --properties) and which fields are qualitatively related (binary qualitative "
+            "observers).  Several runs are merged into one training set (Algorithm 19).  The "
+            "structure (subscriptions, hardware, drivers) comes from --base or --graph; a ROS 1 "
+            "recording names each topic's publishers.  Every learned value carries a comment with "
+            "its evidence; the written model compiles.",
+            88,
+        ),
         "  racc learn run.bag --base models/tedusar.ram -o learned.ram\n"
         "  racc learn run1.bag run2.bag --base robot.ram -Q 0.8 --alpha 10 -o m.ram "
         "--report m.json\n"

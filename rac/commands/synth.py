@@ -7,6 +7,7 @@ import os
 import shutil
 import sys
 import tempfile
+import textwrap
 from pathlib import Path
 from typing import Any
 
@@ -24,13 +25,16 @@ def register(sub: Any) -> None:
         sub,
         "synth",
         "write a synthetic recording (rosbag) of the robot a model describes",
-        "Write a realistic recording of MODEL's robot for demos and tests: regular topics at "
-        "their rates with timing jitter, event-driven topics irregular, sensors driven by one "
-        "teleoperated motion (odometry yaw integrates its angular velocity, the IMU's yaw "
-        "follows it, laser-alignment servos follow the IMU's pitch and roll), real ROS message "
-        "types.  RUN ending in .bag is a ROS 1 bag, anything else a ROS 2 bag directory.  The "
-        "nodes' CPU and memory samples go to RUN's name with .properties.csv beside it.  "
-        f"Faults KIND@T[+D]:TARGET start at T s and last D s (default: to the end): {KINDS}.",
+        textwrap.fill(
+            "Write a realistic recording of MODEL's robot for demos and tests: regular topics at "
+            "their rates with timing jitter, event-driven topics irregular, sensors driven by one "
+            "teleoperated motion (odometry yaw integrates its angular velocity, the IMU's yaw "
+            "follows it, laser-alignment servos follow the IMU's pitch and roll), real ROS message "
+            "types.  RUN ending in .bag is a ROS 1 bag, anything else a ROS 2 bag directory.  The "
+            "nodes' CPU and memory samples go to RUN's name with .properties.csv beside it.  "
+            f"Faults KIND@T[+D]:TARGET start at T s and last D s (default: to the end): {KINDS}.",
+            88,
+        ),
         "  racc synth models/tedusar.ram -o run.bag --duration 300\n"
         "  racc synth models/tedusar.ram -o run2 --ros2 --storage mcap --seed 7\n"
         "  racc synth models/tedusar.ram -o faulty.bag --fault slip@60+10:/pose "

@@ -47,43 +47,73 @@ class Correlation:
         return self.matches / self.checks if self.checks else 0.0
 
 
-def interpolate(
-    times: npt.NDArray[np.float64], other: TopicTrends
-) -> tuple[Codes, npt.NDArray[np.bool_]]:
-    """``other``'s symbols at ``times`` by Table 9.1, and which times lie inside its span."""
+_OUTSIDE = np.int8(3)  # no symbol: a time outside the other topic's span is not checked
+_FLAT_TABLE = TABLE.reshape(-1)
+
+
+def interpolate(times: npt.NDArray[np.float64], other: TopicTrends) -> tuple[Codes, int]:
+    """``other``'s symbols at ``times`` by Table 9.1 (``_OUTSIDE`` beyond its span), and
+    how many of the times lie inside it."""
     after = np.searchsorted(other.times, times, side="right")
     inside = (after > 0) & (after < other.times.size)
-    before = after[inside] - 1
+    before = np.clip(after - 1, 0, other.times.size - 2)
     t0 = other.times[before]
     t1 = other.times[before + 1]
-    frac = (times[inside] - t0) / (t1 - t0)
+    frac = (times - t0) / (t1 - t0)
     zone = np.searchsorted(_ZONE_EDGES, frac, side="right")
-    codes = TABLE[other.codes[:, before], other.codes[:, before + 1], zone]
-    return codes, inside
+    # TABLE[s(q-), s(q+), zone] through one flat index.
+    index = (other.codes[:, before].astype(np.intp) * 3 + other.codes[:, before + 1]) * 4 + zone
+    codes = _FLAT_TABLE[index]
+    codes[:, ~inside] = _OUTSIDE
+    return codes, int(inside.sum())
 
 
-def _matches(a: Codes, b: Codes) -> npt.NDArray[np.int64]:
+Packed = tuple[npt.NDArray[np.uint64], ...]  # per symbol: rows of bits, 64 to a word
+
+
+def pack(codes: Codes) -> Packed:
+    """Where each row holds each symbol, as bits packed 64 to a word."""
+    out = []
+    for symbol in (_D, _C, _I):
+        packed = np.packbits(codes == symbol, axis=1)
+        pad = -packed.shape[1] % 8
+        if pad:
+            packed = np.pad(packed, ((0, 0), (0, pad)))
+        out.append(np.ascontiguousarray(packed).view(np.uint64))
+    return tuple(out)
+
+
+def _matches(a: Packed, b: Packed) -> npt.NDArray[np.int64]:
     """(rows of a, rows of b): at how many positions the two rows hold the same symbol.
 
-    Each symbol's occurrences are packed eight to a byte and counted with popcount, which
-    is exact and needs no BLAS (whose threads thrash on small shared machines).
+    Popcounts of packed bits are exact and need no BLAS (whose threads thrash on small
+    shared machines).
     """
-    total = np.zeros((a.shape[0], b.shape[0]), dtype=np.int64)
-    for symbol in (_D, _C, _I):
-        pa = np.packbits(a == symbol, axis=1)
-        pb = np.packbits(b == symbol, axis=1)
-        total += np.bitwise_count(pa[:, None, :] & pb[None, :, :]).sum(axis=2, dtype=np.int64)
+    total = np.zeros((a[0].shape[0], b[0].shape[0]), dtype=np.int64)
+    for pa, pb in zip(a, b, strict=True):
+        for r in range(pa.shape[0]):
+            total[r] += np.bitwise_count(pa[r] & pb).sum(axis=1, dtype=np.int64)
     return total
 
 
-def pair_matches(x: TopicTrends, y: TopicTrends) -> tuple[npt.NDArray[np.int64], int]:
-    """Matches of every signal of ``x`` with every signal of ``y`` (both directions), checks."""
+def pair_matches(
+    x: TopicTrends, y: TopicTrends, packed: dict[str, Packed] | None = None
+) -> tuple[npt.NDArray[np.int64], int]:
+    """Matches of every signal of ``x`` with every signal of ``y`` (both directions), checks.
+
+    ``packed`` caches each topic's own packed symbols across topic pairs.
+    """
+    cache = packed if packed is not None else {}
+    for t in (x, y):
+        if t.topic not in cache:
+            cache[t.topic] = pack(t.codes)
     if x.topic == y.topic:
-        return 2 * _matches(x.codes, x.codes), 2 * x.times.size
-    y_at_x, x_inside = interpolate(x.times, y)
-    x_at_y, y_inside = interpolate(y.times, x)
-    m = _matches(x.codes[:, x_inside], y_at_x) + _matches(x_at_y, y.codes[:, y_inside])
-    return m, int(x_inside.sum() + y_inside.sum())
+        own = cache[x.topic]
+        return 2 * _matches(own, own), 2 * x.times.size
+    y_at_x, x_checks = interpolate(x.times, y)
+    x_at_y, y_checks = interpolate(y.times, x)
+    m = _matches(cache[x.topic], pack(y_at_x)) + _matches(pack(x_at_y), cache[y.topic])
+    return m, x_checks + y_checks
 
 
 def _admissible(x: TopicTrends, y: TopicTrends) -> npt.NDArray[np.bool_]:
@@ -115,9 +145,10 @@ def correlations(trends: Sequence[TopicTrends], q: float, min_lift: float) -> li
     out: list[Correlation] = []
     ordered = sorted(trends, key=lambda t: t.topic)
     freqs = {t.topic: _frequencies(t) for t in ordered}
+    packed: dict[str, Packed] = {}
     for i, x in enumerate(ordered):
         for y in ordered[i:]:
-            m, checks = pair_matches(x, y)
+            m, checks = pair_matches(x, y, packed)
             if checks == 0:
                 continue
             chance = freqs[x.topic] @ freqs[y.topic].T

@@ -24,6 +24,7 @@ NUMERIC_TYPES = frozenset(
 )
 HEADER_TYPE = "std_msgs/msg/Header"
 QUATERNION_TYPE = "geometry_msgs/msg/Quaternion"
+PLACEHOLDER = "structure_needs_at_least_one_member"  # how ROS 2 fills empty messages
 EULER_FIELDS = ("yaw", "pitch", "roll")
 
 FloatArray = npt.NDArray[np.float64]
@@ -85,6 +86,8 @@ def _walk(
         out.append((prefix.rstrip("."), "quaternion", under_header))
     for name, (nodetype, detail) in fielddefs[typename][1]:
         path = prefix + name
+        if name == PLACEHOLDER:
+            continue
         if nodetype == Nodetype.BASE:
             if detail[0] in NUMERIC_TYPES:
                 out.append((path, "scalar", under_header))

@@ -109,7 +109,7 @@ def _identifier(text: str) -> str:
     return name if name[0].isalpha() or name[0] == "_" else f"r{name}"
 
 
-def _structure_from_graph(graph: Graph, recording: Recording) -> tuple[list[Node], list[Hardware]]:
+def _structure_from_graph(graph: Graph) -> tuple[list[Node], list[Hardware]]:
     nodes = []
     for g in sorted(graph.nodes, key=lambda n: n.name):
         subs = tuple(Name(t) for t in dict.fromkeys(g.subscriptions))
@@ -140,57 +140,58 @@ def _topic_from_recording(data: TopicData) -> Topic:
     return Topic(Name(data.name), data.msg_type, tuple(Name(f) for f in data.fields))
 
 
-def learn(
-    recording: Recording,
-    options: LearnOptions,
-    *,
-    base: Model | None = None,
-    graph: Graph | None = None,
-    properties: Sequence[PropertyStats] = (),
-) -> LearnResult:
-    notes: list[str] = []
+def _structure(
+    recording: Recording, base: Model | None, graph: Graph | None, notes: list[str]
+) -> tuple[list[Node], list[Hardware], list[Topic]]:
+    """Nodes, hardware and declared topics (Definition 9.2), from the best source given."""
     recorded = recording.topic_by_name()
-    # 1. Structure (Definition 9.2): nodes, hardware and the declared topics.
     if base is not None:
-        nodes, hardware = list(base.nodes), list(base.hardware)
-        topics = list(base.topics)
-        ignored = sorted((set(recorded) | set(recording.skipped)) - {t.name.value for t in topics})
+        declared = {t.name.value for t in base.topics}
+        ignored = sorted((set(recorded) | set(recording.skipped)) - declared)
         if ignored:
             notes.append(f"recorded topics not in the base model, ignored: {', '.join(ignored)}")
+        return list(base.nodes), list(base.hardware), list(base.topics)
+    if graph is not None:
+        nodes, hardware = _structure_from_graph(graph)
     else:
-        if graph is not None:
-            nodes, hardware = _structure_from_graph(graph, recording)
-        else:
-            nodes, hardware = _structure_from_recording(recording), []
+        nodes, hardware = _structure_from_recording(recording), []
+        notes.append(
+            "no --base or --graph: subscriptions, hardware and drivers are not in a "
+            "recording, so the model has none (give --base robot.ram or --graph graph.yaml)"
+        )
+        if not nodes:
             notes.append(
-                "no --base or --graph: subscriptions, hardware and drivers are not in a "
-                "recording, so the model has none (give --base robot.ram or --graph graph.yaml)"
+                "the recording names no publishers (ROS 2 bags do not record them): the model "
+                "has no nodes, so no rates or relations can be declared; they are in comments"
             )
-            if not nodes:
-                notes.append(
-                    "the recording names no publishers (ROS 2 bags do not record them): the model "
-                    "has no nodes, so no rates or relations can be declared; they are in comments"
-                )
-        topics = [_topic_from_recording(recorded[n]) for n in sorted(recorded)]
-        known = set(recorded)
-        for node in nodes:
-            for t in [*(s.value for s in node.subscribes), *node.published_topics]:
-                if t not in known:
-                    known.add(t)
-                    topics.append(Topic(Name(t), comments=("not in the recording",)))
-                    notes.append(f"graph topic {t} is not in the recording: no rate learned")
-    published = {t for n in nodes for t in n.published_topics}
-    # 2. Frequency observers (Algorithm 15, lines 5-10).
+    topics = [_topic_from_recording(recorded[n]) for n in sorted(recorded)]
+    known = set(recorded)
+    for node in nodes:
+        for t in [*(s.value for s in node.subscribes), *node.published_topics]:
+            if t not in known:
+                known.add(t)
+                topics.append(Topic(Name(t), comments=("not in the recording",)))
+                notes.append(f"graph topic {t} is not in the recording: no rate learned")
+    return nodes, hardware, topics
+
+
+def _learn_rates(
+    topics: list[Topic],
+    recording: Recording,
+    published: set[str],
+    options: LearnOptions,
+    notes: list[str],
+    undeclared: list[str],
+) -> tuple[list[Topic], list[RateStats]]:
+    """Frequency observers (Algorithm 15, lines 5-10) on the declared topics."""
+    recorded = recording.topic_by_name()
     rates: list[RateStats] = []
     learned_topics: list[Topic] = []
-    trailing: list[str] = []
     for topic in topics:
         data = recorded.get(topic.name.value)
         if data is None:
-            if base is not None:
-                notes.append(
-                    f"topic {topic.name.value} is not in the recording: kept as the base has it"
-                )
+            if topic.rate_hz is not None or topic.fields:
+                notes.append(f"topic {topic.name.value} is not in the recording: kept as it was")
             learned_topics.append(topic)
             continue
         stats = rate_stats(data, options.alpha)
@@ -198,7 +199,8 @@ def learn(
             rates.append(stats)
         learned = _learned_topic(topic, stats, options.alpha)
         if learned.rate_hz is not None and topic.name.value not in published:
-            trailing.append(
+            # Only a published topic can be declared regular: ok(t) needs a clause.
+            undeclared.append(
                 f"{topic.name.value} @ {learned.rate_hz:g} Hz +- "
                 f"{learned.rate_tolerance_hz:g} Hz (no publisher known, so not declared)"
             )
@@ -210,51 +212,81 @@ def learn(
                 mismatch_threshold=None,
             )
         learned_topics.append(learned)
-    # 3. Property observers (Algorithm 15, lines 11-14).
-    node_names = {n.name.value for n in nodes}
-    stray = sorted({s.node for s in properties} - node_names)
-    if stray:
-        notes.append(f"property samples of nodes not in the model, ignored: {', '.join(stray)}")
-    nodes = [_limits(n, properties, options.sigmas) for n in nodes]
-    # 4. Qualitative correlations (Algorithms 16 and 17), between published topics.
+    return learned_topics, rates
+
+
+def _learn_relations(
+    recording: Recording,
+    options: LearnOptions,
+    declared: set[str],
+    declarable: set[str],
+    undeclared: list[str],
+) -> tuple[list[Related], list[LearnedRelation]]:
+    """Qualitative correlations (Algorithms 16 and 17) between the declared topics, as
+    ``relate`` declarations where both topics have a publisher."""
     trends = []
-    for name in sorted(recorded):
-        topic_trend = topic_trends(recorded[name], options.occurrences, options.integrate)
+    for data in (t for t in recording.topics if t.name in declared):
+        topic_trend = topic_trends(data, options.occurrences, options.integrate)
         if topic_trend is not None:
             trends.append(topic_trend)
-    found = group_relations(correlations(trends, options.q, options.min_lift))
     related: list[Related] = []
     kept: list[LearnedRelation] = []
-    fields_needed: dict[str, list[str]] = {}
-    declared_topics = {t.name.value for t in learned_topics}
-    for rel in found:
-        if not {rel.a[0], rel.b[0]} <= published or not {rel.a[0], rel.b[0]} <= declared_topics:
-            trailing.append(
+    for rel in group_relations(correlations(trends, options.q, options.min_lift)):
+        if not {rel.a[0], rel.b[0]} <= declarable:
+            undeclared.append(
                 f"relate {rel.a[0]}.{rel.a[1]} ~ {rel.b[0]}.{rel.b[1]}: "
                 f"{rel.evidence()} (a topic has no known publisher)"
             )
             continue
         related.append(Related(FieldRef(*rel.a), FieldRef(*rel.b), comments=(rel.evidence(),)))
         kept.append(rel)
-        for topic_name, f in (rel.a, rel.b):
-            fields_needed.setdefault(topic_name, []).append(f)
-    learned_topics = [_with_fields(t, fields_needed.get(t.name.value, [])) for t in learned_topics]
-    if trailing:
-        trailing = ["learned but not declarable without publishers:", *trailing]
-    name = (
-        base.name.value
-        if base is not None
-        else options.name
-        or _identifier(re.sub(r"\.bag$", "", recording.runs[0].path.rstrip("/").rsplit("/", 1)[-1]))
-    )
+    return related, kept
+
+
+def _robot_name(recording: Recording, base: Model | None, options: LearnOptions) -> str:
+    if base is not None:
+        return base.name.value
+    if options.name:
+        return options.name
+    first = recording.runs[0].path.rstrip("/").rsplit("/", 1)[-1]
+    return _identifier(re.sub(r"\.bag$", "", first))
+
+
+def learn(
+    recording: Recording,
+    options: LearnOptions,
+    *,
+    base: Model | None = None,
+    graph: Graph | None = None,
+    properties: Sequence[PropertyStats] = (),
+) -> LearnResult:
+    """Algorithm 15 over a merged recording; the structure from ``base``, ``graph`` or it."""
+    notes: list[str] = []
+    undeclared: list[str] = []  # learned, but not declarable for want of a publisher
+    nodes, hardware, topics = _structure(recording, base, graph, notes)
+    published = {t for n in nodes for t in n.published_topics}
+    learned_topics, rates = _learn_rates(topics, recording, published, options, notes, undeclared)
+    # Property observers (Algorithm 15, lines 11-14).
+    stray = sorted({s.node for s in properties} - {n.name.value for n in nodes})
+    if stray:
+        notes.append(f"property samples of nodes not in the model, ignored: {', '.join(stray)}")
+    nodes = [_limits(n, properties, options.sigmas) for n in nodes]
+    declared = {t.name.value for t in learned_topics}
+    related, kept = _learn_relations(recording, options, declared, published & declared, undeclared)
+    needed: dict[str, list[str]] = {}
+    for r in related:
+        for ref in (r.a, r.b):
+            needed.setdefault(ref.topic, []).append(ref.field)
+    learned_topics = [_with_fields(t, needed.get(t.name.value, [])) for t in learned_topics]
     header = [
         f"Learned by racc learn from {len(recording.runs)} run(s), {recording.messages} messages: "
         + ", ".join(r.path for r in recording.runs),
         f"α {options.alpha:g}, Q {options.q:g}, C {options.occurrences}; "
         "review every learned value before use.",
     ]
+    trailing = ["learned but not declarable without publishers:", *undeclared] if undeclared else []
     model = Model(
-        name=Name(name),
+        name=Name(_robot_name(recording, base, options)),
         hardware=tuple(hardware),
         topics=tuple(learned_topics),
         nodes=tuple(nodes),

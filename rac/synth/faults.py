@@ -16,6 +16,7 @@ FAULT_KINDS = {
     "mem": "node",  # the node whose memory use doubles (properties CSV)
 }
 FREQ_FACTOR = 5.0
+ODOMETRY = "nav_msgs/Odometry"
 _SPEC = re.compile(r"(?P<kind>[a-z]+)@(?P<t>[0-9.]+)(\+(?P<d>[0-9.]+))?:(?P<target>\S+)")
 
 
@@ -50,6 +51,9 @@ def parse_fault(spec: str, model: Model) -> Fault:
     if target not in names:
         what = FAULT_KINDS[kind]
         raise _bad(spec, f"the model has no {what} '{target}' (one of {', '.join(sorted(names))})")
+    slipping = model.topic_by_name().get(target)
+    if kind == "slip" and slipping is not None and slipping.msg_type != ODOMETRY:
+        raise _bad(spec, f"slip needs an odometry topic ({ODOMETRY}), not '{target}'")
     try:
         start = float(match["t"])
         duration = float(match["d"]) if match["d"] else None

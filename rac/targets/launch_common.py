@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 from rac.pipeline import Compiled
 from rac.targets import EmitOptions
+from rac.targets.templating import render
 
 MODEL_SERVER_EXECUTABLE = "diagnosis_model_server.py"
 MODEL_SERVER_NAME = "diagnosis_model_server"
@@ -34,4 +35,16 @@ def launch_nodes(compiled: Compiled, options: EmitOptions) -> tuple[LaunchNode, 
             tuple((k, param_text(v)) for k, v in o.params),
         )
         for o in compiled.observers
+    )
+
+
+def render_launch(template: str, compiled: Compiled, options: EmitOptions) -> str:
+    """A launch file starting the model server on model.yaml and every observer."""
+    return render(
+        template,
+        robot=compiled.model.name.value,
+        model_package=options.model_server_package,
+        model_executable=MODEL_SERVER_EXECUTABLE,
+        model_name=MODEL_SERVER_NAME,
+        nodes=launch_nodes(compiled, options),
     )

@@ -4,16 +4,8 @@ from __future__ import annotations
 
 from rac.pipeline import Compiled
 from rac.targets import EmitOptions
-from rac.targets.launch_common import MODEL_SERVER_EXECUTABLE, MODEL_SERVER_NAME, launch_nodes
-from rac.targets.templating import render
+from rac.targets.launch_common import render_launch
 
 
 def emit_launch_ros1(compiled: Compiled, options: EmitOptions) -> str:
-    return render(
-        "observers.launch.j2",
-        robot=compiled.model.name.value,
-        model_package=options.model_server_package,
-        model_executable=MODEL_SERVER_EXECUTABLE,
-        model_name=MODEL_SERVER_NAME,
-        nodes=launch_nodes(compiled, options),
-    )
+    return render_launch("observers.launch.j2", compiled, options)

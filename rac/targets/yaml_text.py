@@ -70,12 +70,11 @@ def _number(value: Any) -> str:
     return text
 
 
-def _line(out: list[str], head: str, text: str) -> None:
+def _fold_check(head: str, text: str) -> None:
     # Past the width PyYAML folds a plain scalar at a space; leave that to PyYAML.  A
     # scalar without spaces cannot be folded and stays on one line, however long.
-    if len(text) > _LONG and " " in text and len(head) + len(text) >= WIDTH - 2:
+    if " " in text and len(head) + len(text) >= WIDTH - 2:
         raise _NotSimple
-    out.append(head + text + "\n")
 
 
 def _mapping(
@@ -87,10 +86,11 @@ def _mapping(
     """
     if not doc:
         raise _NotSimple
+    append = out.append
     lead = first
     for key, value in doc.items():
         k = strings.get(key)
-        if k is None:
+        if k is None or len(k) > 120:  # PyYAML writes a long key as a complex '? key'
             if type(key) is not str or len(key) > 120:
                 raise _NotSimple
             k = strings[key] = _plain(key)
@@ -101,25 +101,28 @@ def _mapping(
             text = strings.get(value)
             if text is None:
                 text = strings[value] = _plain(value)
-            _line(out, head + ": ", text)
+            if len(text) > _LONG:
+                _fold_check(head + ": ", text)
+            append(f"{head}: {text}\n")
         elif kind is dict:
             if not value:
-                out.append(head + ": {}\n")
+                append(head + ": {}\n")
             else:
-                out.append(head + ":\n")
+                append(head + ":\n")
                 _mapping(value, indent + "  ", indent + "  ", out, strings)
         elif kind is list:
             if not value:
-                out.append(head + ": []\n")
+                append(head + ": []\n")
             else:
-                out.append(head + ":\n")
+                append(head + ":\n")
                 _sequence(value, indent, out, strings)
         else:
-            out.append(f"{head}: {_number(value)}\n")
+            append(f"{head}: {_number(value)}\n")
 
 
 def _sequence(items: list[Any], indent: str, out: list[str], strings: dict[str, str]) -> None:
     """An indentless block sequence under a mapping key at ``indent``."""
+    append = out.append
     dash = indent + "- "
     for item in items:
         kind = type(item)
@@ -127,10 +130,12 @@ def _sequence(items: list[Any], indent: str, out: list[str], strings: dict[str, 
             text = strings.get(item)
             if text is None:
                 text = strings[item] = _plain(item)
-            _line(out, dash, text)
+            if len(text) > _LONG:
+                _fold_check(dash, text)
+            append(f"{dash}{text}\n")
         elif kind is dict:
             _mapping(item, indent + "  ", dash, out, strings)
         elif kind is list:
             raise _NotSimple
         else:
-            out.append(dash + _number(item) + "\n")
+            append(f"{dash}{_number(item)}\n")

@@ -1,0 +1,124 @@
+"""The fast reader of rac.fastparse builds exactly what the Lark parser builds, or bails.
+
+Differential tests: for every input the fast path accepts, the model (values, spans and
+comments, compared through ``repr``) must equal Lark's; inputs it does not accept go to Lark,
+so error messages never depend on it.
+"""
+
+from __future__ import annotations
+
+import random
+from pathlib import Path
+
+import pytest
+from hypothesis import given, settings
+from ram_strategies import commented_models, models
+
+from rac import parse
+from rac.errors import RacError
+from rac.fastparse import Bail, fast_parse
+from rac.fmt import format_model
+
+ROOT = Path(__file__).resolve().parent.parent
+MODELS = sorted((ROOT / "models").glob("*.ram"))
+ERRORS = sorted((ROOT / "tests" / "errors").glob("*.ram"))
+
+# Odd but valid layouts: semicolons, glued tokens, options in any order, comments anywhere.
+ODD = """# head
+robot r;
+hardware a switchable channel 2 ; hardware b
+topic /t : std_msgs/Float64 { x, y.z, } @ 1.5e1 Hz ± 2 Hz window 300 ms mismatch 3;
+topic /u{}@.5Hz+-0.1Hz window 2s
+topic /v:a/b # after
+topic /w { p } @ 10 Hz
+  window 2 s
+node n drives a, b { subscribes /t, /u; publishes /v from /t, /u; publishes /w, /z
+  limits cpu 5 %, mem 1.5 GiB; limits mem 3 kB reports a, dev-1 } ;
+node m;node k {}
+node j {
+  # inside
+  subscribes /t,
+    /u
+  publishes /q
+    from /t
+  limits cpu 5 %, mem 64 MB, cpu 7 %
+}
+relate /t.x ~ /v.y # c
+interval /t.x~/t.y.z within 0.25;
+# tail
+"""
+PIECES = [" ", "\n", ";", ",", "#c\n", "{", "}", "x", "/", "~", ".", "1", "Hz", "from", "+-"]
+PIECES += ["±", "\t", "s", "ms", "%", "MB", "node", "topic", "  ", "@", ":", "0.5", "-", "\r\n"]
+
+
+def _lark(text: str) -> str:
+    try:
+        model, comments = parse._parse_with_lark(text, "f.ram")
+    except RacError as err:
+        return "error: " + err.render()
+    return repr(parse._attach_comments(model, comments))
+
+
+def _fast(text: str) -> str | None:
+    try:
+        model, comments = fast_parse(text, "f.ram")
+    except Bail:
+        return None
+    return repr(parse._attach_comments(model, comments))
+
+
+def _same_or_bail(text: str) -> bool:
+    """True when the fast path read ``text``; fails when it read it differently."""
+    fast = _fast(text)
+    if fast is not None:
+        assert fast == _lark(text), text
+    return fast is not None
+
+
+@pytest.mark.parametrize("path", MODELS, ids=lambda p: p.name)
+def test_example_models_take_the_fast_path(path: Path) -> None:
+    assert _same_or_bail(path.read_text(encoding="utf-8"))
+
+
+def test_odd_layouts() -> None:
+    assert _same_or_bail(ODD) is False  # the list and 'from' continued on the next line
+    flat = ODD.replace(",\n    /u", ", /u").replace("\n    from", " from")
+    flat = flat.replace("\n  window 2 s", " window 2 s")
+    assert _same_or_bail(flat)
+
+
+@pytest.mark.parametrize("path", ERRORS, ids=lambda p: p.name)
+def test_bad_models(path: Path) -> None:
+    text = path.read_text(encoding="utf-8")
+    if path.name[:6] in ("RAC001", "RAC002", "RAC003"):
+        assert _fast(text) is None  # syntax errors are Lark's to report
+    else:
+        _same_or_bail(text)
+
+
+def test_mutants() -> None:
+    rng = random.Random(2)
+    texts = [ODD, *(p.read_text(encoding="utf-8") for p in MODELS)]
+    read = 0
+    for _ in range(1500):
+        text = rng.choice(texts)
+        for _ in range(rng.randint(1, 3)):
+            pos = rng.randrange(len(text) + 1)
+            if rng.random() < 0.5:
+                text = text[:pos] + rng.choice(PIECES) + text[pos:]
+            else:
+                text = text[:pos] + text[pos + rng.randint(1, 4) :]
+        read += _same_or_bail(text)
+    assert read > 100  # the fast path is exercised, not only bailed from
+
+
+@settings(max_examples=60, deadline=None)
+@given(models())
+def test_formatted_random_models(model: object) -> None:
+    _same_or_bail(format_model(model))  # type: ignore[arg-type]
+
+
+@settings(max_examples=60, deadline=None)
+@given(commented_models())
+def test_commented_random_models(model: object) -> None:
+    _same_or_bail(format_model(model))  # type: ignore[arg-type]
