@@ -23,6 +23,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 from typing import TypeVar
 
@@ -159,7 +160,7 @@ def compile_once(text: str) -> tuple[dict[str, float], Compiled]:
     for target in targets():
         try:
             text_out, times[f"emit {target.filename}"] = timed(
-                lambda t=target: t.emit(compiled, options)
+                partial(target.emit, compiled, options)
             )
             outputs.append(text_out)
         except Exception as err:  # a target under construction must not stop the figures

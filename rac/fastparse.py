@@ -91,6 +91,11 @@ MEM_UNITS = {
 # like a keyword ('node from', 'publishes from from /a') is a name here too.
 
 
+# A node's head up to its '{' on the same line.
+_NODE_HEAD = re.compile(
+    rf"node[ \t]+(?P<name>(?>{_NAME.pattern}))"
+    rf"(?:[ \t]+drives[ \t]+(?P<drives>{_NAME_RUN.pattern}))?(?=[ \t]*\{{)"
+)
 # Node statements on one line.
 _LINE_END = r"(?=[ \t]*(?:[\n#;}]|\Z))"
 _STATEMENT_LINE = re.compile(
@@ -446,15 +451,28 @@ class _Reader:
         )
 
     def node(self) -> Node:
-        start = self.keyword("node")
-        self.skip()
-        name = self.name()
-        self.skip()
         drives: tuple[Name, ...] = ()
-        if self.peek_word() == "drives":
-            self.keyword("drives")
+        if (m := _NODE_HEAD.match(self.text, self.pos)) is not None:
+            # 'node NAME drives A, B {' on one line, read with one regex match.
+            line, base = self.line, self.line_start - 1
+            start = (line, m.start() - base)
+            name_start, name_end = m.span("name")
+            name = Name(m["name"], Span(self.path, line, name_start - base, line, name_end - base))
+            if m["drives"] is not None:
+                driven: list[Name] = []
+                self.run(_NAME_RUN, _NAME, driven, m.span("drives"))
+                drives = tuple(driven)
+            self._take(m.end())
             self.skip()
-            drives = self.name_list()
+        else:
+            start = self.keyword("node")
+            self.skip()
+            name = self.name()
+            self.skip()
+            if self.peek_word() == "drives":
+                self.keyword("drives")
+                self.skip()
+                drives = self.name_list()
         subscribes: list[Name] = []
         publishes: list[Publication] = []
         diagnostics: list[Name] = []

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import re
 from dataclasses import dataclass
 
@@ -11,6 +12,7 @@ NEG_PREFIX = "not_"
 FALSE = "false"
 
 
+@functools.lru_cache(maxsize=1 << 16)  # a large model mangles each name many times
 def mangle(name: str) -> str:
     """Turn a model name into an atom argument (contract §2).
 

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 from rosbags.highlevel import AnyReader, AnyReaderError
+from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.base import TypesysError
 
 from rac.errors import Diagnostic, RacError
@@ -93,7 +94,9 @@ def read_run(
     if not p.exists():
         raise _fail(str(path), "no such file or directory")
     try:
-        with AnyReader([p]) as reader:
+        # Bags written without message definitions (older ROS 2) fall back to the standard types.
+        store = get_typestore(Stores.ROS2_HUMBLE if p.is_dir() else Stores.ROS1_NOETIC)
+        with AnyReader([p], default_typestore=store) as reader:
             return _read(reader, str(path), selector, topics)
     except (AnyReaderError, TypesysError, OSError, ValueError, KeyError) as err:
         raise _fail(str(path), str(err) or type(err).__name__) from None

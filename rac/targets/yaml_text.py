@@ -16,7 +16,6 @@ import re
 from typing import Any
 
 import yaml
-from yaml.resolver import Resolver
 
 WIDTH = 1000
 # A string PyYAML writes as a plain scalar in block context: no indicator at its start, no
@@ -24,13 +23,38 @@ WIDTH = 1000
 # implicit resolvers are asked separately (so 'on', 'null' or '1.5' are not plain strings).
 _PLAIN = re.compile(r"[A-Za-z_/][A-Za-z0-9_/().,:~+<>=\-]*(?: [A-Za-z0-9_/().,~+<>=\-]+)*")
 # PyYAML's implicit resolvers (bool, int, float, null, timestamp, ...), by first character.
-_RESOLVERS: dict[Any, list[tuple[str, re.Pattern[str]]]] = Resolver.yaml_implicit_resolvers
-_WILDCARD = _RESOLVERS.get(None, [])
+_RESOLVERS: dict[Any, list[tuple[str, re.Pattern[str]]]] = yaml.SafeDumper.yaml_implicit_resolvers
+_WILDCARD = tuple(regexp for _tag, regexp in _RESOLVERS.get(None, []))
+_IMPLICIT = {
+    first: (*(regexp for _tag, regexp in resolvers), *_WILDCARD)
+    for first, resolvers in _RESOLVERS.items()
+    if first is not None
+}
 _LONG = WIDTH - 200  # below this length no line can reach the width
 
 
-class _NotSimple(Exception):
-    pass
+class NotSimple(Exception):
+    """The document (or a value) is not one this module can write exactly as PyYAML."""
+
+
+_NotSimple = NotSimple
+
+
+def scalar(value: Any, strings: dict[Any, str]) -> str:
+    """The plain text of a string or number in a block mapping or sequence.
+
+    Raises :class:`NotSimple` for anything :func:`dump` would leave to PyYAML, including a
+    string so long that PyYAML might fold its line.  ``strings`` caches plain strings.
+    """
+    if type(value) is str:
+        text = strings.get(value)
+        if text is None:
+            text = _plain(value)
+            if len(text) > _LONG and " " in text:
+                raise NotSimple
+            strings[value] = text  # so a hit in ``strings`` is always safe to use as is
+        return text
+    return _number(value)
 
 
 def dump(doc: dict[str, Any]) -> str:
@@ -49,7 +73,7 @@ def _plain(value: str) -> str:
     """``value`` when PyYAML writes it as a plain scalar that reads back as this string."""
     if _PLAIN.fullmatch(value) is None or value.endswith(":") or ": " in value:
         raise _NotSimple
-    for _tag, regexp in (*_RESOLVERS.get(value[0], ()), *_WILDCARD):
+    for regexp in _IMPLICIT.get(value[0], _WILDCARD):
         if regexp.match(value):
             raise _NotSimple
     return value
