@@ -140,6 +140,11 @@ class Model:
     )  # after the last declaration
     path: str = dataclasses.field(default="<model>", compare=False)
     source: str | None = dataclasses.field(default=None, compare=False, repr=False)
+    # Derived lookups computed once per model (the passes ask for publishers() often);
+    # a cache only, outside comparison and hashing.
+    _memo: dict[str, object] = dataclasses.field(
+        default_factory=dict, init=False, compare=False, hash=False, repr=False
+    )
 
     def hardware_by_name(self) -> dict[str, Hardware]:
         return {h.name.value: h for h in self.hardware}
@@ -152,8 +157,12 @@ class Model:
 
     def publishers(self) -> dict[str, tuple[str, ...]]:
         """Topic name -> names of the nodes publishing it, in declaration order."""
-        out: dict[str, list[str]] = {}
-        for node in self.nodes:
-            for topic in node.published_topics:
-                out.setdefault(topic, []).append(node.name.value)
-        return {t: tuple(ns) for t, ns in out.items()}
+        cached = self._memo.get("publishers")
+        if cached is None:
+            out: dict[str, list[str]] = {}
+            for node in self.nodes:
+                for topic in node.published_topics:
+                    out.setdefault(topic, []).append(node.name.value)
+            cached = self._memo["publishers"] = {t: tuple(ns) for t, ns in out.items()}
+        assert isinstance(cached, dict)
+        return dict(cached)

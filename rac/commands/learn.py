@@ -12,9 +12,6 @@ from typing import Any
 
 from rac.commands.common import add_command, load_checked, write_file_atomically
 from rac.fmt import format_model
-from rac.learn import LearnOptions, learn, observer_counts, report
-from rac.learn.fields import FieldSelector
-from rac.learn.graph import parse_graph
 from rac.learn.options import (
     DEFAULT_ALPHA,
     DEFAULT_MIN_LIFT,
@@ -22,8 +19,6 @@ from rac.learn.options import (
     DEFAULT_Q,
     DEFAULT_SIGMAS,
 )
-from rac.learn.properties import parse_properties, property_stats
-from rac.learn.recording import read_recording
 from rac.loader import read_text
 from rac.pipeline import compile_model
 
@@ -131,6 +126,14 @@ def _check_options(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    # NumPy and rosbags load here, not at start-up: every racc command pays for imports
+    # made at module level.
+    from rac.learn import LearnOptions, learn, observer_counts, report
+    from rac.learn.fields import FieldSelector
+    from rac.learn.graph import parse_graph
+    from rac.learn.properties import parse_properties, property_stats
+    from rac.learn.recording import read_recording
+
     _check_options(args)
     base = load_checked(args.base) if args.base else None
     graph = parse_graph(read_text(args.graph), args.graph) if args.graph else None

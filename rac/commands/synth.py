@@ -13,9 +13,7 @@ from typing import Any
 
 from rac.commands.common import add_command, load_checked
 from rac.errors import Diagnostic, RacError
-from rac.synth import SynthOptions, plan_recording, write_recording
 from rac.synth.faults import FAULT_KINDS, parse_fault
-from rac.synth.recording import fault_summary
 
 KINDS = ", ".join(f"{k} (TARGET a {v})" for k, v in FAULT_KINDS.items())
 
@@ -74,6 +72,10 @@ def _remove(path: Path) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    # rosbags loads here, not at every racc start-up.
+    from rac.synth import SynthOptions, plan_recording, write_recording
+    from rac.synth.recording import fault_summary
+
     if args.duration <= 0:
         print("racc synth: error: --duration must be above 0", file=sys.stderr)
         return 2

@@ -64,3 +64,8 @@ def _paused_gc(emit: Emitter) -> Emitter:
 
 def targets() -> tuple[Target, ...]:
     return tuple(Target(t.name, t.filename, _paused_gc(t.emit), t.description) for t in _registry())
+
+
+def emit_all(compiled: Compiled, options: EmitOptions) -> dict[str, str]:
+    """Every target's text, keyed by file name, in registry order."""
+    return {t.filename: t.emit(compiled, options) for t in targets()}

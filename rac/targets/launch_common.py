@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 from rac.pipeline import Compiled
 from rac.targets import EmitOptions
-from rac.targets.templating import render
+from rac.targets.templating import render, xmlparams
 
 MODEL_SERVER_EXECUTABLE = "diagnosis_model_server.py"
 MODEL_SERVER_NAME = "diagnosis_model_server"
@@ -17,7 +17,7 @@ class LaunchNode:
     package: str
     executable: str
     name: str
-    params: tuple[tuple[str, str], ...]
+    params_xml: str  # the node's <param> lines, already escaped
 
 
 def param_text(value: object) -> str:
@@ -27,15 +27,21 @@ def param_text(value: object) -> str:
 
 
 def launch_nodes(compiled: Compiled, options: EmitOptions) -> tuple[LaunchNode, ...]:
-    return tuple(
-        LaunchNode(
-            options.observers_package,
-            f"{o.kind}.py",
-            o.name,
-            tuple((k, param_text(v)) for k, v in o.params),
+    """The observer nodes, computed once per compilation for both launch files."""
+    key = ("launch_nodes", options)
+    cached = compiled.memo.get(key)
+    if cached is None:
+        cached = compiled.memo[key] = tuple(
+            LaunchNode(
+                options.observers_package,
+                f"{o.kind}.py",
+                o.name,
+                xmlparams((k, param_text(v)) for k, v in o.params),
+            )
+            for o in compiled.observers
         )
-        for o in compiled.observers
-    )
+    assert isinstance(cached, tuple)
+    return cached
 
 
 def render_launch(template: str, compiled: Compiled, options: EmitOptions) -> str:
