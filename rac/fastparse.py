@@ -19,7 +19,9 @@ against Lark on the example models, odd layouts, mutants and random models.
 
 from __future__ import annotations
 
+import dataclasses
 import re
+from collections.abc import Callable
 from typing import Any
 
 from lark import Token
@@ -111,6 +113,111 @@ _ANY_LIMIT = re.sub(r"\(\?P<\w+>", "(?:", _LIMIT.pattern)
 _LIMITS_LINE = re.compile(
     rf"limits[ \t]+(?P<limits>(?:{_ANY_LIMIT})(?:[ \t]*,[ \t]*(?:{_ANY_LIMIT}))*){_LINE_END}"
 )
+
+
+# Whole lines in the usual layout, each read with one match (``_Reader.model``).  The
+# terminals are those above with their groups made non-capturing (``m.groups()`` then holds
+# only the parts this reader uses), each in an atomic group so that it matches exactly as the
+# lexer alone would; whitespace within a line is Lark's WS without the newline.  A line ends
+# in ``_TAIL``: an optional ';', an optional comment and the newline (or the end of the text);
+# its first, empty group marks where the last token before it ends.  Whatever these patterns
+# do not match is read token by token as before, and a declaration read here is read again
+# token by token when the next line turns out to continue it.
+def _plain(pattern: str) -> str:
+    """``pattern`` with every group, named or not, made non-capturing."""
+    return re.sub(r"\((?!\?)|\(\?P<\w+>", "(?:", pattern)
+
+
+_S = r"[ \t\f\r]"
+_TAIL = rf"(){_S}*(;)?{_S}*(#[^\n]*)?(?:\n|\Z)"
+_A_NAME = rf"(?>{_NAME.pattern})"
+_A_FIELD = rf"(?>{_plain(_FIELD.pattern)})"
+_A_FIELD_REF = rf"(?>{_plain(_FIELD_REF.pattern)})"
+_A_NUMBER = rf"(?>{_plain(_NUMBER.pattern)})"
+_NAMES = rf"{_A_NAME}(?:{_S}*,{_S}*{_A_NAME})*"
+_FIELDS = rf"{_A_FIELD}(?:{_S}*,{_S}*{_A_FIELD})*"
+_OPTION = re.compile(
+    rf"(?:\+-|±){_S}*(?P<tolerance>{_A_NUMBER}){_S}*Hz{_END}"
+    rf"|window{_END}{_S}*(?P<window>{_A_NUMBER}){_S}*(?P<unit>ms|s){_END}"
+    rf"|mismatch{_END}{_S}*(?P<mismatch>(?>\d+))"
+)
+_LIMIT_S = re.compile(
+    rf"cpu{_S}+(?P<cpu>{_A_NUMBER}){_S}*%"
+    rf"|mem{_S}+(?P<mem>{_A_NUMBER}){_S}*(?P<unit>{_UNITS}){_END}"
+)
+_HARDWARE_LINE = re.compile(
+    rf"hardware{_S}+({_A_NAME})((?:{_S}+(?:switchable|channel{_S}+(\d+)){_END})*){_TAIL}"
+)
+_TOPIC_FAST = re.compile(
+    rf"topic{_S}+({_A_NAME})"
+    rf"(?:{_S}*:{_S}*((?>{_plain(_MSG_TYPE.pattern)})))?"
+    rf"(?:{_S}*\{{{_S}*(?:({_FIELDS}){_S}*(?:,{_S}*)?)?\}})?"
+    rf"(?:{_S}*@{_S}*({_A_NUMBER}){_S}*Hz{_END}((?:{_S}*(?:{_plain(_OPTION.pattern)}))*))?"
+    + _TAIL
+)
+_NODE_LINE = re.compile(
+    rf"node{_S}+({_A_NAME})(?:{_S}+drives{_S}+({_NAMES}))?{_S}*\{{{_S}*(#[^\n]*)?\n"
+)
+_BODY_LINE = re.compile(
+    rf"{_S}*()(?:(?:(subscribes|publishes|reports){_S}+({_NAMES})(?:{_S}+from{_S}+({_NAMES}))?"
+    rf"|limits{_S}+((?:{_plain(_LIMIT_S.pattern)})(?:{_S}*,{_S}*(?:{_plain(_LIMIT_S.pattern)}))*))"
+    rf"{_S}*(;)?)?{_S}*(#[^\n]*)?\n"
+)
+_CLOSE_LINE = re.compile(rf"{_S}*\}}{_TAIL}")
+_RELATE_LINE = re.compile(rf"relate{_S}+({_A_FIELD_REF}){_S}*~{_S}*({_A_FIELD_REF}){_TAIL}")
+_INTERVAL_LINE = re.compile(
+    rf"interval{_S}+({_A_FIELD_REF}){_S}*~{_S}*({_A_FIELD_REF})"
+    rf"{_S}*within{_END}{_S}*({_A_NUMBER}){_TAIL}"
+)
+_NO_LIMITS = Limits()
+# A name or a field in a run of them (neither holds a ',' or a blank).
+_ITEM = re.compile(r"[^ \t\f\r,]+")
+
+
+def _constructors() -> tuple[Callable[[str, int, int, int, int], Span], Callable[[str, Span], Name]]:
+    """``Span`` and ``Name`` constructors for the one-line shortcuts.
+
+    A large model holds hundreds of thousands of names, and the ``__init__`` of a frozen
+    dataclass sets each field through ``object.__setattr__``, about half the cost of reading
+    a name.  These set the same slots through the classes' own slot descriptors, which is
+    what that ``__init__`` does, at half the cost; should either class ever gain a field or
+    a ``__post_init__``, the plain classes are used instead."""
+    span_fields = tuple(f.name for f in dataclasses.fields(Span))
+    name_fields = tuple(f.name for f in dataclasses.fields(Name))
+    if (
+        span_fields != ("file", "line", "column", "end_line", "end_column")
+        or name_fields != ("value", "span")
+        or getattr(Span, "__slots__", None) != span_fields
+        or getattr(Name, "__slots__", None) != name_fields
+        or hasattr(Span, "__post_init__")
+        or hasattr(Name, "__post_init__")
+    ):
+        return Span, Name
+    new = object.__new__
+    set_file, set_line, set_column, set_end_line, set_end_column = (
+        vars(Span)[field].__set__ for field in span_fields
+    )
+    set_value, set_span = (vars(Name)[field].__set__ for field in name_fields)
+
+    def span(file: str, line: int, column: int, end_line: int, end_column: int) -> Span:
+        made = new(Span)
+        set_file(made, file)
+        set_line(made, line)
+        set_column(made, column)
+        set_end_line(made, end_line)
+        set_end_column(made, end_column)
+        return made
+
+    def name(value: str, span: Span) -> Name:
+        made = new(Name)
+        set_value(made, value)
+        set_span(made, span)
+        return made
+
+    return span, name
+
+
+_span, _name = _constructors()
 
 
 class Bail(Exception):
@@ -281,10 +388,46 @@ class _Reader:
         nodes: list[Node] = []
         related: list[Related] = []
         intervals: list[Interval] = []
+        text = self.text
+        size = len(text)
+        # The last declaration when a one-line pattern read it: its list, the token-by-token
+        # reader of its kind and the reader's state before it (pos, line, line_start, number
+        # of comments), to read it again should the next token turn out to continue it.
+        undo: tuple[list[Any], Callable[[], Any], int, int, int, int] | None = None
         while True:
-            self.skip()
-            if self.at_end():
+            pos = self.pos
+            if text[pos : pos + 1] in _SPACE_OR_HASH:
+                self.skip()
+                pos = self.pos
+            if pos >= size:
                 break
+            first = text[pos]
+            line, line_start, ncomments = self.line, self.line_start, len(self.comments)
+            if first == "n":
+                if (m := _NODE_LINE.match(text, pos)) is not None:
+                    nodes.append(self.node_lines(m))
+                    undo = (nodes, self.node, pos, line, line_start, ncomments)
+                    continue
+            elif first == "t":
+                if (m := _TOPIC_FAST.match(text, pos)) is not None:
+                    topics.append(self.topic_fast(m))
+                    undo = (topics, self.topic, pos, line, line_start, ncomments)
+                    continue
+            elif first == "h":
+                if (m := _HARDWARE_LINE.match(text, pos)) is not None:
+                    hardware.append(self.hardware_line(m))
+                    undo = (hardware, self.hardware, pos, line, line_start, ncomments)
+                    continue
+            elif first == "r":
+                if (m := _RELATE_LINE.match(text, pos)) is not None:
+                    related.append(self.relate_line(m))
+                    undo = (related, self.relate, pos, line, line_start, ncomments)
+                    continue
+            elif first == "i":
+                if (m := _INTERVAL_LINE.match(text, pos)) is not None:
+                    intervals.append(self.interval_line(m))
+                    undo = (intervals, self.interval, pos, line, line_start, ncomments)
+                    continue
             word = self.peek_word()
             if word == "hardware":
                 hardware.append(self.hardware())
@@ -296,8 +439,14 @@ class _Reader:
                 related.append(self.relate())
             elif word == "interval":
                 intervals.append(self.interval())
+            elif undo is not None:
+                # The last line read in one go goes on here: read it again token by token.
+                items, read, self.pos, self.line, self.line_start, ncomments = undo
+                del self.comments[ncomments:]
+                items[-1] = read()
             else:
                 raise Bail
+            undo = None
         model = Model(
             name=header,
             hardware=tuple(hardware),
@@ -309,6 +458,215 @@ class _Reader:
         )
         return model, self.comments
 
+    # one-line shortcuts --------------------------------------------------------
+    def _names(self, start: int, run: str, line: int, base: int, names: list[Name]) -> None:
+        """The items of ``run``, a comma-separated run of names or fields matched at
+        ``start`` on line ``line`` (whose first character is at ``base + 1``)."""
+        path = self.path
+        items = run.split(", ")
+        count = len(items)
+        if count == run.count(",") + 1 == run.count(" ") + 1 and run.isprintable():
+            # Exactly ', ' between the items (the usual layout): no regex needed.
+            column = start - base
+            for value in items:
+                end = column + len(value)
+                names.append(_name(value, _span(path, line, column, line, end)))
+                column = end + 2
+            return
+        for token in _ITEM.finditer(run):
+            s, e = token.span()
+            names.append(
+                _name(token.group(), _span(path, line, start + s - base, line, start + e - base))
+            )
+
+    def _comment(self, start: int, value: str, line: int, base: int) -> None:
+        column = start - base
+        end = start + len(value)
+        self.comments.append(
+            Token(
+                "COMMENT",
+                value,
+                start_pos=start,
+                line=line,
+                column=column,
+                end_line=line,
+                end_column=end - base,
+                end_pos=end,
+            )
+        )
+
+    def _next_line(self, end: int) -> None:
+        """Move to ``end``, the end of a line read in one go (after its newline if any)."""
+        self.pos = end
+        if self.text[end - 1] == "\n":
+            self.line += 1
+            self.line_start = end
+
+    def hardware_line(self, m: re.Match[str]) -> Hardware:
+        name, options, channel, _, semi, comment = m.groups()
+        path, line, base = self.path, self.line, self.line_start - 1
+        column = m.start(1) - base
+        end = m.end(5) if semi is not None else m.start(4)
+        if comment is not None:
+            self._comment(m.start(6), comment, line, base)
+        self._next_line(m.end())
+        return Hardware(
+            _name(name, _span(path, line, column, line, column + len(name))),
+            switchable="switchable" in options,
+            channel=int(channel) if channel is not None else None,
+            span=_span(path, line, m.start() - base, line, end - base),
+        )
+
+    def topic_fast(self, m: re.Match[str]) -> Topic:
+        name, msg_type, field_run, rate, options, _, semi, comment = m.groups()
+        path, line, base = self.path, self.line, self.line_start - 1
+        column = m.start(1) - base
+        fields: list[Name] = []
+        if field_run is not None:
+            self._names(m.start(3), field_run, line, base, fields)
+        tolerance: float | None = None
+        window: float | None = None
+        mismatch: int | None = None
+        if options:
+            for option in _OPTION.finditer(options):
+                if option["tolerance"] is not None:
+                    tolerance = float(option["tolerance"])
+                elif option["window"] is not None:
+                    scale = 1000.0 if option["unit"] == "ms" else 1.0
+                    window = float(option["window"]) / scale
+                else:
+                    mismatch = int(option["mismatch"])
+        end = m.end(7) if semi is not None else m.start(6)
+        if comment is not None:
+            self._comment(m.start(8), comment, line, base)
+        self._next_line(m.end())
+        return Topic(
+            _name(name, _span(path, line, column, line, column + len(name))),
+            msg_type=msg_type,
+            fields=tuple(fields),
+            rate_hz=float(rate) if rate is not None else None,
+            rate_tolerance_hz=tolerance,
+            window_s=window,
+            mismatch_threshold=mismatch,
+            span=_span(path, line, m.start() - base, line, end - base),
+        )
+
+    def node_lines(self, m: re.Match[str]) -> Node:
+        """A node whose head ends its line with '{', each statement on a line of its own and
+        '}' on a line of its own; anything else is read again token by token."""
+        text, path = self.text, self.path
+        first_line, line_start, ncomments = self.line, self.line_start, len(self.comments)
+        line, base = first_line, line_start - 1
+        name, drive_run, comment = m.groups()
+        column = m.start(1) - base
+        drives: list[Name] = []
+        if drive_run is not None:
+            self._names(m.start(2), drive_run, line, base, drives)
+        if comment is not None:
+            self._comment(m.start(3), comment, line, base)
+        start_column = m.start() - base
+        subscribes: list[Name] = []
+        publishes: list[Publication] = []
+        diagnostics: list[Name] = []
+        limits = _NO_LIMITS
+        pos = m.end()
+        line += 1
+        match = _BODY_LINE.match
+        while (b := match(text, pos)) is not None:
+            base = pos - 1
+            _, kind, names, inputs, limit_run, semi, comment = b.groups()
+            if kind is not None:
+                if kind == "subscribes":
+                    self._names(b.start(3), names, line, base, subscribes)
+                elif kind == "reports":
+                    self._names(b.start(3), names, line, base, diagnostics)
+                else:
+                    topics: list[Name] = []
+                    self._names(b.start(3), names, line, base, topics)
+                    if inputs is None:
+                        publishes.extend([Publication(topic) for topic in topics])
+                    elif len(topics) == 1:
+                        affected_by: list[Name] = []
+                        self._names(b.start(4), inputs, line, base, affected_by)
+                        publishes.append(Publication(topics[0], tuple(affected_by)))
+                    else:
+                        break  # a syntax error: let the token-by-token reader bail
+                if inputs is not None and kind != "publishes":
+                    break
+            elif limit_run is not None:
+                cpu: float | None = None
+                mem: int | None = None
+                for limit in _LIMIT_S.finditer(limit_run):
+                    if limit["cpu"] is not None:
+                        if cpu is None:
+                            cpu = float(limit["cpu"])
+                    elif mem is None:
+                        mem = round(float(limit["mem"]) * MEM_UNITS[limit["unit"]])
+                end = b.end(6) if semi is not None else b.end(5)
+                limits = Limits(
+                    cpu=cpu if cpu is not None else limits.cpu,
+                    mem=mem if mem is not None else limits.mem,
+                    span=_span(path, line, b.start(1) - base, line, end - base),
+                )
+            if comment is not None:
+                self._comment(b.start(7), comment, line, base)
+            pos = b.end()
+            line += 1
+        else:
+            c = _CLOSE_LINE.match(text, pos)
+            if c is not None:
+                _, semi, comment = c.groups()
+                base = pos - 1
+                end = c.end(2) if semi is not None else c.start(1)
+                if comment is not None:
+                    self._comment(c.start(3), comment, line, base)
+                self.line = line
+                self.line_start = pos
+                self._next_line(c.end())
+                return Node(
+                    _name(name, _span(path, first_line, column, first_line, column + len(name))),
+                    drives=tuple(drives),
+                    subscribes=tuple(subscribes),
+                    publishes=tuple(publishes),
+                    limits=limits,
+                    diagnostics=tuple(diagnostics),
+                    span=_span(path, first_line, start_column, line, end - base),
+                )
+        # Not in the usual layout: read the node token by token.
+        self.pos, self.line, self.line_start = m.start(), first_line, line_start
+        del self.comments[ncomments:]
+        return self.node()
+
+    def relate_line(self, m: re.Match[str]) -> Related:
+        a, b, _, semi, comment = m.groups()
+        path, line, base = self.path, self.line, self.line_start - 1
+        end = m.end(4) if semi is not None else m.start(3)
+        a_column, b_column = m.start(1) - base, m.start(2) - base
+        if comment is not None:
+            self._comment(m.start(5), comment, line, base)
+        self._next_line(m.end())
+        return Related(
+            FieldRef.parse(a, _span(path, line, a_column, line, a_column + len(a))),
+            FieldRef.parse(b, _span(path, line, b_column, line, b_column + len(b))),
+            span=_span(path, line, m.start() - base, line, end - base),
+        )
+
+    def interval_line(self, m: re.Match[str]) -> Interval:
+        a, b, diff, _, semi, comment = m.groups()
+        path, line, base = self.path, self.line, self.line_start - 1
+        end = m.end(5) if semi is not None else m.start(4)
+        a_column, b_column = m.start(1) - base, m.start(2) - base
+        if comment is not None:
+            self._comment(m.start(6), comment, line, base)
+        self._next_line(m.end())
+        return Interval(
+            FieldRef.parse(a, _span(path, line, a_column, line, a_column + len(a))),
+            FieldRef.parse(b, _span(path, line, b_column, line, b_column + len(b))),
+            float(diff),
+            span=_span(path, line, m.start() - base, line, end - base),
+        )
+
+    # token by token ------------------------------------------------------------
     def hardware(self) -> Hardware:
         start = self.keyword("hardware")
         self.skip()

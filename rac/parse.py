@@ -14,7 +14,7 @@ from lark import Lark, Token, Transformer, Tree, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
 from lark.tree import Meta
 
-from rac.errors import Diagnostic, RacError, Span
+from rac.errors import Diagnostic, RacError, Span, did_you_mean
 from rac.fastparse import MEM_UNITS, Bail, fast_parse
 from rac.ir import (
     FieldRef,
@@ -68,8 +68,24 @@ def _words(expected: set[str]) -> str:
 
 
 def _keyword(terminal: str) -> str:
-    # Anonymous keyword terminals are named after their text, e.g. PUBLISHES.
-    return f"'{terminal.lower()}'"
+    """A keyword terminal as the user writes it: ``HZ`` -> ``'Hz'``, ``SEMICOLON`` -> ``';'``."""
+    return f"'{_literals().get(terminal, terminal.lower())}'"
+
+
+@functools.cache
+def _literals() -> dict[str, str]:
+    """Terminal name -> its literal text, for the grammar's string terminals."""
+    return {
+        t.name: t.pattern.value
+        for t in _commented_parser().terminals
+        if t.pattern.type == "str"
+    }
+
+
+def _keyword_hint(token: Token, expected: set[str]) -> str | None:
+    """Did-you-mean for a misspelt keyword (``subscribe`` for ``subscribes``)."""
+    keywords = [_literals()[t] for t in expected if t in _literals()]
+    return did_you_mean(str(token), [k for k in keywords if k.isalpha()])
 
 
 def _parse_error(err: UnexpectedInput, path: str, text: str) -> Diagnostic:
@@ -83,7 +99,8 @@ def _parse_error(err: UnexpectedInput, path: str, text: str) -> Diagnostic:
     if isinstance(err, UnexpectedToken):
         token = err.token
         span = _span(path, token)
-        return Diagnostic("RAC001", f"unexpected '{token}'; expected {_words(err.expected)}", span)
+        message = f"unexpected '{token}'; expected {_words(err.expected)}"
+        return Diagnostic("RAC001", message, span, hint=_keyword_hint(token, err.expected))
     if isinstance(err, UnexpectedCharacters):
         span = Span(path, line, column, line, column + 1)
         pos = err.pos_in_stream

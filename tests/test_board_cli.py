@@ -74,11 +74,14 @@ def read_frame(sock: socket.socket) -> tuple[int, bytes]:
     return cmd, read_exact(sock, length)
 
 
-def read_until(sock: socket.socket, cmd: int) -> bytes:
-    while True:
+def read_until(sock: socket.socket, cmd: int, within_s: float = 5 * WAIT_S) -> bytes:
+    """The next frame of kind ``cmd``; MSRs keep arriving, so the wait has its own bound."""
+    deadline = time.monotonic() + within_s
+    while time.monotonic() < deadline:
         got, data = read_frame(sock)
         if got == cmd:
             return data
+    raise AssertionError(f"no CMD {cmd} within {within_s} s")
 
 
 def states(msr: bytes) -> list[int]:
@@ -227,3 +230,37 @@ def test_scenario_device_shutdown_against_the_board(
     assert report["diagnosis"]["bad"] == ["hokuyo"]
     assert "on(hokuyo)" in report["board_after"]
     assert main(["scenario", TEDUSAR, "power-up", "--board", sim["board"]]) == 2
+
+
+def closed_port() -> str:
+    """A loopback address where nothing listens (the OS just handed the port out)."""
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return f"127.0.0.1:{sock.getsockname()[1]}"
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["board", "status", "--board", "127.0.0.1:1", "--timeout", "0"],
+        ["board", "switch", "--board", "127.0.0.1:1", "--timeout", "nan", "1", "on"],
+        ["board-sim", "--port", "99999"],
+        ["board-sim", "--control-port", "-1"],
+        ["board-sim", "--channels", "0"],
+    ],
+)
+def test_bad_options_exit_2(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(argv) == 2
+    assert "error:" in capsys.readouterr().err
+
+
+def test_a_control_port_that_refuses_is_an_error_not_a_traceback(
+    sim: dict[str, str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = ["scenario", TEDUSAR, "device-shutdown", "--board", sim["board"]]
+    assert main([*argv, "--board-control", closed_port()]) == 1
+    err = capsys.readouterr().err
+    assert "RAC090" in err and "cannot reach the control port" in err
+    assert (
+        main(["board", "switch", "--board", sim["board"], "--model", TEDUSAR, "jaguar", "on"]) == 0
+    )

@@ -180,8 +180,30 @@ def test_plan_failures_name_the_step() -> None:
     run(test)
 
 
-@pytest.mark.parametrize("specs", [["start=x"], ["start=x", "stop"], ["go=x", "stop=y"]])
+@pytest.mark.parametrize(
+    "specs",
+    [
+        ["start=x"],
+        ["start=x", "stop"],
+        ["go=x", "stop=y"],
+        ["start=echo {nod}", "stop=true"],  # an unknown placeholder
+        ["start=echo {0}", "stop=true"],
+        ["start=true", "stop=echo 'unbalanced {node}"],  # an open quote
+    ],
+)
 def test_bad_node_command_templates(specs: list[str]) -> None:
     with pytest.raises(RacError) as caught:
         parse_node_commands(specs)
     assert codes(caught) == ["RAC095"]
+
+
+def test_a_connect_that_times_out_says_so() -> None:
+    async def test(sim: BoardSimulator, address: BoardAddress) -> None:
+        instant = ClientSettings(timeout_s=0.0, reconnects=0)
+        with pytest.raises(RacError) as caught:
+            async with BoardClient(address, instant):
+                pass
+        assert codes(caught) == ["RAC090"]
+        assert caught.value.diagnostics[0].message.endswith(": timed out")
+
+    run(test)

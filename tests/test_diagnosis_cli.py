@@ -161,3 +161,49 @@ def test_simulate_all_single_faults_names_groups(
     assert [c["candidates"] for c in doc["components"]] == [2, 2]
     code, out, _ = run(capsys, "simulate", str(model), "--all-single-faults")
     assert "{a, b}" in out
+
+
+def test_max_card_0_does_not_claim_that_no_diagnosis_exists(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    code, out, err = run(
+        capsys, "diagnose", TEDUSAR, "--obs", "not ok(pose)", "--max-card", "0", "--json"
+    )
+    assert code == 0 and json.loads(out)["diagnoses"] == []
+    assert "bounded at 0" in err and "no diagnosis exists" not in err
+
+
+def test_all_single_faults_table_names_undetected_faults(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    model = tmp_path / "m.yaml"
+    model.write_text("props: [ok(x)]\nrules:\n  - NAB(a) -> ok(x)\n  - NAB(d) -> on(d)\n")
+    code, out, _ = run(capsys, "simulate", str(model), "--all-single-faults")
+    assert code == 0 and "1/2 faults detected" in out
+    assert "every single fault is told apart" not in out
+    assert "undetected (no observer sees a symptom; add observers): d" in out
+
+
+def test_many_obs_scan_the_model_once(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import rac.commands.diagnose as command
+    import rac.diagnosis.theory as theory_module
+
+    calls: list[int] = []
+    real = theory_module.known_atoms
+
+    def counting(theory: theory_module.Theory) -> frozenset[theory_module.Atom]:
+        calls.append(1)
+        return real(theory)
+
+    monkeypatch.setattr(command, "known_atoms", counting)
+    monkeypatch.setattr(theory_module, "known_atoms", counting)
+    argv = ["--obs", "ok(pose)", "--obs", "running(rviz)", "--obs", "not ok(scan)"]
+    code, _, _ = run(capsys, "diagnose", TEDUSAR, *argv)
+    assert code == 0 and len(calls) == 1
+
+
+def test_all_single_faults_table_says_when_bounded(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = run(capsys, "simulate", TEDUSAR, "--all-single-faults", "--max-card", "0")
+    assert code == 0 and "0/12 isolated" in out and "bounded by --max-card" in out

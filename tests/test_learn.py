@@ -309,7 +309,16 @@ def test_cli_learns_and_reports_table_10_1_counts(
 
 @pytest.mark.parametrize(
     "bad",
-    [["-Q", "1.5"], ["--alpha", "0"], ["--occurrences", "1"]],
+    [
+        ["-Q", "1.5"],
+        ["--alpha", "0"],
+        ["--occurrences", "1"],
+        ["--alpha", "nan"],
+        ["--alpha", "inf"],
+        ["--sigmas", "nan"],
+        ["--sigmas", "inf"],
+        ["--min-lift", "nan"],
+    ],
 )
 def test_cli_rejects_bad_parameters(bad: list[str], ros1_run: Path, tmp_path: Path) -> None:
     with pytest.raises(SystemExit) as exit_:
@@ -325,3 +334,21 @@ def test_cli_reports_an_unreadable_recording(
     assert main(["learn", str(junk), "-o", str(tmp_path / "x.ram")]) == 1
     assert "RAC080" in capsys.readouterr().err
     assert main(["learn", str(tmp_path / "missing.bag"), "-o", str(tmp_path / "x.ram")]) == 1
+
+
+def test_cli_reports_a_damaged_bag_without_a_traceback(
+    ros1_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Bags whose index reads but whose chunks are damaged: rosbags raises its own
+    ReaderError or fails an assert while the messages are read (seen on these patterns)."""
+    original = ros1_run.read_bytes()
+    assert len(original) > 200_000
+    for start, step in ((50_000, 997), (5_000, 20_011), (5_000, 100_003)):
+        data = bytearray(original)
+        for i in range(start, len(data), step):
+            data[i] ^= 0x5A
+        damaged = tmp_path / f"damaged-{step}.bag"
+        damaged.write_bytes(bytes(data))
+        assert main(["learn", str(damaged), "-o", str(tmp_path / "x.ram")]) == 1, step
+        assert "RAC080" in capsys.readouterr().err
+        assert not (tmp_path / "x.ram").exists()

@@ -146,6 +146,21 @@ def test_graph_accepts_rosnode_info_lines_and_rejects_unknown_keys() -> None:
         assert err.value.diagnostics[0].code == "RAC081"
 
 
+def test_graph_accepts_ros2_node_info_lines_and_checks_hardware_types() -> None:
+    graph = parse_graph(
+        "nodes:\n  /a:\n"
+        "    publishers: ['/x: std_msgs/msg/Int8', '/rosout: rcl_interfaces/msg/Log']\n"
+        "    subscribers: ['/y: std_msgs/msg/Int8']\n",
+        "g.yaml",
+    )
+    assert graph.nodes[0].publications == ("/x",)
+    assert graph.nodes[0].subscriptions == ("/y",)
+    for bad in ("{switchable: true, channel: true}", "{switchable: 'no'}"):
+        with pytest.raises(RacError) as err:
+            parse_graph(f"nodes: {{a: {{drives: [h]}}}}\nhardware: {{h: {bad}}}\n", "g.yaml")
+        assert err.value.diagnostics[0].code == "RAC081"
+
+
 def test_properties_csv() -> None:
     samples = parse_properties("time,node,cpu,mem\n0,/a,1.5,100\n1,a,2.5,\n", "p.csv")
     stats = {(s.node, s.prop): s for s in property_stats(samples)}

@@ -239,12 +239,32 @@ def test_planner_missing_crashing_and_timing_out(
     assert err.value.diagnostics[0].code == "RAC074"
 
 
+def test_planner_time_limit_leaves_fast_downward_time_to_start(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """FD counts its driver's CPU in the limit: 1 s used to leave the translator 0 s."""
+    argv = tmp_path / "argv.txt"
+    fake = f"import sys\nopen({str(argv)!r}, 'w').write(' '.join(sys.argv))\nsys.exit(35)\n"
+    monkeypatch.setenv("RACC_FAST_DOWNWARD", _fake_planner(tmp_path, fake))
+    with pytest.raises(NoRepairPlan):
+        run_planner(render_repair_domain("x"), "(define (problem p) (:domain x))", timeout_s=1)
+    assert "--overall-time-limit 2s" in argv.read_text(encoding="utf-8")
+
+
+def test_real_planner_timing_out_is_a_time_out(theory: Theory) -> None:
+    prepared = prepare(theory, theta(theory, SECTION_8_4), "tedusar")
+    with pytest.raises(NoRepairPlan, match=r"within 0\.001 s") as err:
+        solve(prepared, timeout_s=0.001)
+    assert err.value.diagnostics[0].code == "RAC074"
+
+
 @pytest.mark.parametrize(
     ("code", "message"),
     [
         (11, "unsolvable"),
         (12, "unsolvable"),
         (23, "within 5 s"),
+        (232, "within 5 s"),  # the translator killed by SIGXCPU
         (22, "memory"),
         (35, "exit code 35"),
     ],
@@ -322,3 +342,37 @@ def test_every_repairable_problem_gets_a_valid_plan(problem: RepairProblem) -> N
     domain = render_repair_domain("prop")
     run = run_planner(domain, text, timeout_s=30)
     assert check_plan(problem, run.plan).bad == frozenset()
+
+
+def test_components_named_like_the_domain_still_validate() -> None:
+    """unified-planning keeps types, predicates, actions and objects in one namespace."""
+    names = dict(pddl_names(["node", "device", "Driver", "power_up", "at"]))
+    assert names == {
+        "node": "c_node",
+        "device": "c_device",
+        "Driver": "c_driver",
+        "power_up": "c_power_up",
+        "at": "at",
+    }
+    system = RepairSystem(
+        (("device", Kind.DEVICE), ("node", Kind.NODE), ("power_up", Kind.NODE)),
+        (("node", "device"),),
+    )
+    observed = [Literal(Atom("on", ("device",)), False), Literal(Atom("running", ("node",)), True)]
+    problem = make_problem("kw", system, observed, ("device", "node"))
+    text, domain = render_problem(problem), render_repair_domain("kw")
+    plan = tuple(
+        (s[0], *(problem.component_of()[a] for a in s[1:]))
+        for s in run_planner(domain, text, timeout_s=30).plan
+    )
+    assert check_plan(problem, plan).bad == frozenset()
+    validate_plan(domain, text, problem, plan)
+
+
+def test_validator_that_cannot_read_the_problem_is_a_message(theory: Theory) -> None:
+    result = solve(prepare(theory, theta(theory, SECTION_8_4), "tedusar"))
+    prepared = result.prepared
+    broken = prepared.problem_text.replace("- driver", "- driver\n    node - node", 1)
+    with pytest.raises(NoRepairPlan, match="cannot read it") as err:
+        validate_plan(prepared.domain_text, broken, prepared.problem, result.plan)
+    assert err.value.diagnostics[0].code == "RAC078"

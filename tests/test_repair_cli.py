@@ -237,7 +237,7 @@ def test_missing_planner_exits_3(
     assert code == 3 and "RAC072" in err and "pip install up-fast-downward" in err
 
 
-@pytest.mark.parametrize("value", ["0", "-1", "soon"])
+@pytest.mark.parametrize("value", ["0", "-1", "soon", "nan", "inf", "1e300"])
 def test_bad_planner_timeout_is_a_usage_error(value: str) -> None:
     with pytest.raises(SystemExit) as exit_info:
         main(["repair", str(TEDUSAR), "--obs", "ok(pose)", "--planner-timeout", value])
@@ -266,3 +266,24 @@ def test_scenario_on_a_model_yaml(tmp_path: Path, capsys: pytest.CaptureFixture[
     plan = [tuple(step) for step in doc["plan"]]
     assert plan.index(("power_up", "jaguar")) < plan.index(("start_node", "jaguar_node"))
     assert len(plan) == 12
+
+
+def test_scenario_on_a_model_yaml_without_props(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Without props every rule head is observed (as racc simulate does), not nothing at all."""
+    model = tmp_path / "robot.yaml"
+    model.write_text(
+        "rules:\n- NAB(cam) -> on(cam)\n- NAB(cam_node) -> running(cam_node)\n"
+        "- NAB(cam_node), NAB(cam) -> ok(img)\n",
+        encoding="utf-8",
+    )
+    code, out, _ = racc(capsys, "scenario", str(model), "power-up", "--json")
+    doc = json.loads(out)
+    assert code == 0 and doc["diagnosis"]["bad"] == ["cam", "cam_node"]
+    assert doc["plan"] == [["power_up", "cam"], ["start_node", "cam_node"]]
+
+
+def test_device_with_power_up_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = racc(capsys, "scenario", str(TEDUSAR), "power-up", "--device", "hokuyo")
+    assert code == 2 and out == "" and "--device" in err

@@ -186,3 +186,25 @@ def test_cli_rejects_a_bad_fault(tmp_path: Path) -> None:
     args = ["synth", str(TEDUSAR), "-o", str(tmp_path / "x.bag"), "--fault", "oops"]
     assert main(args) == 1
     assert not (tmp_path / "x.bag").exists()
+
+
+@pytest.mark.parametrize(
+    ("options", "fragment"),
+    [
+        (["-o", "x.bag", "--duration", "nan"], "--duration"),
+        (["-o", "x.bag", "--duration", "inf"], "--duration"),
+        (["-o", "x.bag", "--duration", "1e9"], "--duration"),
+        (["-o", "x.bag", "--seed", "-5"], "--seed"),
+        (["-o", "x.bag", "--seed", "1000000"], "--seed"),
+        (["-o", "x", "--ros1"], "ends in .bag"),  # learn could not read it back
+        (["-o", "x.bag", "--ros2"], "directory"),
+        (["-o", "x.bag", "--storage", "mcap"], "--storage is for ROS 2"),
+    ],
+)
+def test_cli_rejects_bad_options_with_exit_2(
+    options: list[str], fragment: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    options = [str(tmp_path / o) if o.startswith("x") else o for o in options]
+    assert main(["synth", str(TEDUSAR), *options]) == 2
+    assert fragment in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []

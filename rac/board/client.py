@@ -142,7 +142,7 @@ class BoardClient:
         except (OSError, TimeoutError) as err:
             raise board_error(
                 "RAC090",
-                f"cannot connect to the board at {self.address}: {err or 'timed out'}",
+                f"cannot connect to the board at {self.address}: {str(err) or 'timed out'}",
                 hint="is `racc board-sim` (or the board) running there?",
             ) from None
         first = await self._receive()
@@ -163,7 +163,8 @@ class BoardClient:
                 await self.close()
                 if attempt + 1 == attempts:
                     raise board_error(
-                        "RAC090", f"lost the board at {self.address}: {err or 'connection closed'}"
+                        "RAC090",
+                        f"lost the board at {self.address}: {str(err) or 'connection closed'}",
                     ) from None
             except RacError as err:
                 codes = {d.code for d in err.diagnostics}

@@ -67,7 +67,23 @@ def parse_node_commands(specs: Sequence[str]) -> NodeCommands:
     missing = [k for k in ("start", "stop") if k not in found]
     if missing:
         raise RacError([Diagnostic("RAC095", f"--node-commands lacks {' and '.join(missing)}=…")])
-    return NodeCommands(start=found["start"], stop=found["stop"])
+    commands = NodeCommands(start=found["start"], stop=found["stop"])
+    for action in NODE_ACTIONS:  # fail now, not after the plan's hardware steps have run
+        template = commands.start if action == "start_node" else commands.stop
+        try:
+            shlex.split(commands.render(action, "node"))
+        except (KeyError, IndexError, ValueError) as err:
+            raise RacError(
+                [
+                    Diagnostic(
+                        "RAC095",
+                        f"bad --node-commands template '{template}': {err}",
+                        hint="{node} is the only placeholder; write {{ and }} for braces, "
+                        "and close every quote",
+                    )
+                ]
+            ) from None
+    return commands
 
 
 @dataclass(frozen=True, slots=True)

@@ -121,7 +121,14 @@ async def device_shutdown_on_board(
         check_fits(channels, client.channel_count)
         before = hobs_literals(channels, await client.measure())
         if control is not None:
-            reply = await send_control(control.host, control.port, f"trip {number}")
+            try:
+                reply = await send_control(control.host, control.port, f"trip {number}")
+            except (OSError, TimeoutError) as err:
+                raise board_error(
+                    "RAC090",
+                    f"cannot reach the control port {control}: {str(err) or 'timed out'}",
+                    hint="is it `racc board-sim`'s control port (its second line of output)?",
+                ) from None
             if not reply.startswith("ok"):
                 raise board_error("RAC091", f"the control port refused the trip: {reply}")
             tripped_by = "control port"

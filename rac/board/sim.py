@@ -179,7 +179,7 @@ class BoardSimulator:
             session.send(self.state.init())
             await self._read_frames(reader, session)
         except (ConnectionError, OSError, TimeoutError) as err:
-            self.log(f"{session.name}: {err or 'not reading'}")
+            self.log(f"{session.name}: {str(err) or 'not reading'}")
         except asyncio.CancelledError:
             pass  # closing down; a cancelled handler task only makes asyncio print noise
         except Exception as err:  # a bug must cost one session, never the board

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
+import math
 import sys
 from collections.abc import Sequence
 from typing import Any
@@ -137,7 +138,11 @@ async def control(args: argparse.Namespace) -> int:
         reply = await send_control(address.host, address.port, " ".join(args.line))
     except (OSError, TimeoutError) as err:
         raise RacError(
-            [Diagnostic("RAC090", f"cannot reach the control port {address}: {err or 'timeout'}")]
+            [
+                Diagnostic(
+                    "RAC090", f"cannot reach the control port {address}: {str(err) or 'timed out'}"
+                )
+            ]
         ) from None
     print(reply)
     return 0 if reply.startswith("ok") else 1
@@ -150,6 +155,9 @@ def run(args: argparse.Namespace) -> int:
         return 2
     if command == "control":
         return asyncio.run(control(args))
+    if not (math.isfinite(args.timeout) and args.timeout > 0):
+        print(f"racc board {command}: error: --timeout must be above 0 seconds", file=sys.stderr)
+        return 2
     channels = channel_map(load_checked(args.model)) if args.model else ChannelMap()
     if command == "status":
         return asyncio.run(status(args, channels))

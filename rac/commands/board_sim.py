@@ -81,7 +81,20 @@ async def serve(args: argparse.Namespace, channels: ChannelMap, count: int) -> N
         await sim.close()
 
 
+def _command_line_problem(args: argparse.Namespace) -> str | None:
+    for flag, port in (("--port", args.port), ("--control-port", args.control_port)):
+        if not 0 <= port <= 65535:
+            return f"{flag} must be in 0..65535 (0: any free port), not {port}"
+    if args.channels is not None and not 1 <= args.channels <= MAX_CHANNELS:
+        return f"--channels must be in 1..{MAX_CHANNELS}, not {args.channels}"
+    return None
+
+
 def run(args: argparse.Namespace) -> int:
+    problem = _command_line_problem(args)
+    if problem:
+        print(f"racc board-sim: error: {problem}", file=sys.stderr)
+        return 2
     channels = channel_map(load_checked(args.model)) if args.model else ChannelMap()
     count = channel_count(args.channels, channels)
     if args.host not in LOOPBACK:

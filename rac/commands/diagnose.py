@@ -10,7 +10,7 @@ from typing import Any
 
 from rac.commands.common import add_command
 from rac.diagnosis import DiagnosisResult, Literal, Theory, collect, diagnose, load_theory
-from rac.diagnosis.theory import parse_literal, parse_observations
+from rac.diagnosis.theory import known_atoms, literal_at, parse_observations
 from rac.loader import read_text
 
 
@@ -58,9 +58,10 @@ def add_observation_options(parser: argparse.ArgumentParser) -> None:
 def observations(args: argparse.Namespace, theory: Theory) -> tuple[Literal, ...]:
     """Θ from --obs and --obs-file in command-line order (contract §6)."""
     literals: list[Literal] = []
+    known = known_atoms(theory)  # once: it is a pass over the whole model
     for kind, value in args.sources:
         if kind == "obs":
-            literals.append(parse_literal(value, theory))
+            literals.append(literal_at(value, theory, None, known))
         else:
             literals.extend(parse_observations(read_text(value), value, theory))
     return collect(literals)
@@ -108,7 +109,7 @@ def notes(result: DiagnosisResult, max_card: int | None) -> list[str]:
             f"note: the search was bounded at {max_card} faulty component(s); "
             "larger diagnoses were not explored, so the lists may be incomplete"
         )
-    if not result.consistent and not result.diagnoses:
+    if not result.consistent and not result.diagnoses and not result.bounded:
         lines.append(
             "note: the observations contradict the model whatever the components do; "
             "no diagnosis exists (check the observations)"

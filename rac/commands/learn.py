@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import textwrap
 import time
@@ -111,7 +112,15 @@ def register(sub: Any) -> None:
 
 
 def _check_options(args: argparse.Namespace) -> None:
-    problems = []
+    problems = [
+        f"{flag} must be a finite number"
+        for flag, value in (
+            ("--alpha", args.alpha),
+            ("--sigmas", args.sigmas),
+            ("--min-lift", args.min_lift),
+        )
+        if not math.isfinite(value)
+    ]
     if args.alpha <= 0:
         problems.append("--alpha must be above 0")
     if not 0 <= args.q < 1:

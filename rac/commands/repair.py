@@ -30,6 +30,7 @@ from rac.repair import (
 from rac.repair.validate import validate_plan
 
 EXIT_NO_PLAN = 3
+MAX_TIMEOUT_S = 1e6  # eleven days
 
 
 def seconds(text: str) -> float:
@@ -39,6 +40,8 @@ def seconds(text: str) -> float:
         raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
     if not value > 0:
         raise argparse.ArgumentTypeError("must be more than 0")
+    if not value <= MAX_TIMEOUT_S:  # inf, or beyond what the OS timers take
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_TIMEOUT_S:g} seconds")
     return value
 
 

@@ -81,6 +81,9 @@ def report(result: ScenarioResult) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.device is not None and args.scenario != "device-shutdown":
+        print("racc scenario: error: --device belongs to device-shutdown", file=sys.stderr)
+        return 2  # a command line error, as argparse's
     if args.board:
         return run_board_scenario(args)
     try:

@@ -85,8 +85,17 @@ def table_report(sims: tuple[Simulation, ...], groups: tuple[tuple[str, ...], ..
     if groups:
         lines.append("ambiguity groups (the model cannot tell these components apart):")
         lines.extend(f"  {{{', '.join(g)}}}" for g in groups)
-    else:
+    elif detected == len(sims):
         lines.append("ambiguity groups: none, every single fault is told apart from the others")
+    else:
+        lines.append("ambiguity groups: none among the detected faults")
+    if any(s.result.bounded for s in sims):
+        lines.append("note: the search was bounded by --max-card; the counts may be incomplete")
+    undetected = [s.faults[0] for s in sims if not s.detected]
+    if undetected:
+        lines.append(
+            f"undetected (no observer sees a symptom; add observers): {', '.join(undetected)}"
+        )
     return "\n".join(lines)
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import shutil
 import sys
@@ -15,6 +16,8 @@ from rac.commands.common import add_command, load_checked
 from rac.errors import Diagnostic, RacError
 from rac.synth.faults import FAULT_KINDS, parse_fault
 
+MAX_DURATION_S = 86_400
+MAX_SEED = 99_999
 KINDS = ", ".join(f"{k} (TARGET a {v})" for k, v in FAULT_KINDS.items())
 
 
@@ -44,7 +47,7 @@ def register(sub: Any) -> None:
     version.add_argument("--ros1", action="store_true", help="a ROS 1 .bag file")
     version.add_argument("--ros2", action="store_true", help="a ROS 2 bag directory")
     parser.add_argument(
-        "--storage", choices=("sqlite3", "mcap"), default="sqlite3", help="ROS 2 storage"
+        "--storage", choices=("sqlite3", "mcap"), help="ROS 2 storage (default: sqlite3)"
     )
     parser.add_argument(
         "--duration", metavar="S", type=float, default=120.0, help="seconds (default: 120)"
@@ -71,25 +74,43 @@ def _remove(path: Path) -> None:
         path.unlink()
 
 
+def _command_line_problem(args: argparse.Namespace, out: Path, ros_version: int) -> str | None:
+    """What is wrong with the options (exit 2), or None."""
+    if not (math.isfinite(args.duration) and 0 < args.duration <= MAX_DURATION_S):
+        return f"--duration must be above 0 and at most {MAX_DURATION_S} s"
+    if not 0 <= args.seed <= MAX_SEED:
+        # Each seed starts its recording an hour later; ROS time stamps must stay in range.
+        return f"--seed must be in 0..{MAX_SEED}"
+    if ros_version == 1 and not out.name.endswith(".bag"):
+        return f"a ROS 1 bag's name ends in .bag (readers tell the formats apart by it): {out}"
+    if ros_version == 2 and out.name.endswith(".bag"):
+        return f"a ROS 2 bag is a directory, not a name ending in .bag: {out}"
+    if ros_version == 1 and args.storage is not None:
+        return "--storage is for ROS 2 bags"
+    return None
+
+
 def run(args: argparse.Namespace) -> int:
     # rosbags loads here, not at every racc start-up.
     from rac.synth import SynthOptions, plan_recording, write_recording
     from rac.synth.recording import fault_summary
 
-    if args.duration <= 0:
-        print("racc synth: error: --duration must be above 0", file=sys.stderr)
+    out = Path(args.output)
+    ros_version = 1 if args.ros1 or (not args.ros2 and out.name.endswith(".bag")) else 2
+    problem = _command_line_problem(args, out, ros_version)
+    if problem:
+        print(f"racc synth: error: {problem}", file=sys.stderr)
         return 2
     model = load_checked(args.model)
     faults = tuple(parse_fault(f, model) for f in args.fault)
-    out = Path(args.output)
-    ros_version = 1 if args.ros1 or (not args.ros2 and out.name.endswith(".bag")) else 2
     csv_path = properties_path(out)
     for target in (out, csv_path):
         if (target.exists() or target.is_symlink()) and not args.force:
             raise RacError(
                 [Diagnostic("RAC084", f"{target} exists", hint="remove it or pass --force")]
             )
-    options = SynthOptions(args.duration, args.seed, ros_version, args.storage, faults)
+    storage = args.storage or "sqlite3"
+    options = SynthOptions(args.duration, args.seed, ros_version, storage, faults)
     plan = plan_recording(model, options)
     out.parent.mkdir(parents=True, exist_ok=True)
     try:
@@ -106,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
     except OSError as err:
         raise RacError([Diagnostic("RAC004", f"{out}: cannot write: {err}")]) from None
     if not args.quiet:
-        kind = "ROS 1 bag" if ros_version == 1 else f"ROS 2 bag ({args.storage})"
+        kind = "ROS 1 bag" if ros_version == 1 else f"ROS 2 bag ({storage})"
         print(
             f"wrote {out} ({kind}): {count} messages on {len(plan.topics)} topics, "
             f"{args.duration:g} s; properties -> {csv_path}"

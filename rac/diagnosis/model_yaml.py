@@ -60,10 +60,10 @@ def parse_model_yaml(text: str, file: str) -> Theory:
         problem = getattr(err, "problem", None) or str(err)
         raise RacError([Diagnostic("RAC006", f"not valid YAML: {problem}", span)], text) from None
     if not isinstance(root, yaml.MappingNode):
-        where = root if root is not None else None
-        raise RacError(
-            [_error(file, where, "a model file is a mapping with keys " + ", ".join(KEYS))], text
-        )
+        message = "a model file is a mapping with keys " + ", ".join(KEYS)
+        if root is None:  # an empty file: still name it
+            raise RacError([Diagnostic("RAC006", message, Span(file, 1, 1, 1, 1))], text)
+        raise RacError([_error(file, root, message)], text)
     errors: list[Diagnostic] = []
     values: dict[str, yaml.Node] = {}
     for key_node, value_node in root.value:

@@ -106,8 +106,17 @@ def parse_literal(text: str, theory: Theory) -> Literal:
     return literal_at(text, theory, None)
 
 
-def literal_at(text: str, theory: Theory, where: tuple[str, int, int] | None) -> Literal:
-    """:func:`parse_literal`, with ``(file, line, column)`` for the diagnostic span."""
+def literal_at(
+    text: str,
+    theory: Theory,
+    where: tuple[str, int, int] | None,
+    known: frozenset[Atom] | None = None,
+) -> Literal:
+    """:func:`parse_literal`, with ``(file, line, column)`` for the diagnostic span.
+
+    ``known`` is :func:`known_atoms` of ``theory``, when the caller has it: computing it costs
+    a pass over the whole model, so a file of literals computes it once, not once per line.
+    """
     span = None
     if where is not None:
         file, line, column = where
@@ -128,7 +137,8 @@ def literal_at(text: str, theory: Theory, where: tuple[str, int, int] | None) ->
                 )
             ]
         ) from None
-    known = known_atoms(theory)
+    if known is None:
+        known = known_atoms(theory)
     if theory.is_assumption(atom):
         raise RacError(
             [
@@ -171,13 +181,14 @@ def parse_observations(text: str, file: str, theory: Theory) -> tuple[Literal, .
     """
     literals: list[Literal] = []
     errors: list[Diagnostic] = []
+    known = known_atoms(theory)
     for number, line in enumerate(text.splitlines(), start=1):
         content = line.split("#", 1)[0]
         if not content.strip():
             continue
         column = len(content) - len(content.lstrip()) + 1
         try:
-            literals.append(literal_at(content.strip(), theory, (file, number, column)))
+            literals.append(literal_at(content.strip(), theory, (file, number, column), known))
         except RacError as err:
             errors.extend(err.diagnostics)
     if errors:

@@ -10,7 +10,8 @@ The shape (docs/learning.md shows how ``rosnode info`` / ``ros2 node info`` map 
     hardware:                          # optional
       jaguar: {switchable: true, channel: 1}
 
-A topic entry may keep ``rosnode info``'s type suffix: ``/pose [nav_msgs/Odometry]``.
+A topic entry may keep ``rosnode info``'s type suffix, ``/pose [nav_msgs/Odometry]``, or
+``ros2 node info``'s, ``/pose: nav_msgs/msg/Odometry``.
 """
 
 from __future__ import annotations
@@ -64,8 +65,9 @@ def _names(value: Any, path: str, where: str) -> tuple[str, ...]:
         return ()
     if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
         raise _bad(path, f"{where} must be a list of names")
-    # ``/pose [nav_msgs/Odometry]`` as rosnode info prints it; ``* /pose`` as pasted bullets.
-    cleaned = (v.strip().removeprefix("*").strip().split(" ")[0] for v in value)
+    # ``/pose [nav_msgs/Odometry]`` as rosnode info prints it, ``* /pose`` as pasted bullets,
+    # ``/pose: nav_msgs/msg/Odometry`` as ros2 node info prints it.
+    cleaned = (v.strip().removeprefix("*").strip().split(" ")[0].removesuffix(":") for v in value)
     return tuple(v for v in cleaned if v and v not in INFRASTRUCTURE_TOPICS)
 
 
@@ -100,7 +102,10 @@ def parse_graph(text: str, path: str) -> Graph:
         if not isinstance(body, dict) or set(body) - {"switchable", "channel"}:
             raise _bad(path, f"hardware {name}: expected {{switchable: BOOL, channel: INT}}")
         channel = body.get("channel")
-        if channel is not None and not isinstance(channel, int):
+        if channel is not None and (isinstance(channel, bool) or not isinstance(channel, int)):
             raise _bad(path, f"hardware {name}: channel must be an integer")
-        hardware.append(GraphHardware(str(name), bool(body.get("switchable", False)), channel))
+        switchable = body.get("switchable", False)
+        if not isinstance(switchable, bool):
+            raise _bad(path, f"hardware {name}: switchable must be true or false")
+        hardware.append(GraphHardware(str(name), switchable, channel))
     return Graph(tuple(nodes), tuple(hardware))

@@ -6,6 +6,7 @@ field values.  :func:`merge_runs` joins several runs into one training set (Algo
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -13,6 +14,9 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 from rosbags.highlevel import AnyReader, AnyReaderError
+from rosbags.rosbag1 import ReaderError as Rosbag1Error
+from rosbags.rosbag2 import ReaderError as Rosbag2Error
+from rosbags.serde import SerdeError
 from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.base import TypesysError
 
@@ -21,6 +25,22 @@ from rac.learn.fields import FieldSelector, FloatArray, extractor, layout_of
 
 IntArray = npt.NDArray[np.int64]
 _WRAPPING = frozenset({"yaw", "roll"})  # derived angles unwrapped into continuous signals
+# What a damaged bag raises while its messages are read: rosbags' own errors, and the
+# struct/index/assert failures of its parsers meeting corrupt bytes.
+_DAMAGED = (
+    AnyReaderError,
+    Rosbag1Error,
+    Rosbag2Error,
+    SerdeError,
+    TypesysError,
+    OSError,
+    ValueError,
+    KeyError,
+    IndexError,
+    EOFError,
+    AssertionError,
+    struct.error,
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -98,8 +118,9 @@ def read_run(
         store = get_typestore(Stores.ROS2_HUMBLE if p.is_dir() else Stores.ROS1_NOETIC)
         with AnyReader([p], default_typestore=store) as reader:
             return _read(reader, str(path), selector, topics)
-    except (AnyReaderError, TypesysError, OSError, ValueError, KeyError) as err:
-        raise _fail(str(path), str(err) or type(err).__name__) from None
+    except _DAMAGED as err:
+        why = str(err) or f"damaged ({type(err).__name__})"
+        raise _fail(str(path), why) from None
 
 
 def _read(

@@ -37,6 +37,26 @@ _RESERVED = frozenset(
         "problem",
     ]
 )
+# The repair domain's types, predicates and actions: unified-planning's reader (--validate)
+# keeps one namespace for them and the objects, so a component called "node" breaks it.
+_DOMAIN_NAMES = frozenset(
+    [
+        "component",
+        "node",
+        "device",
+        "hardware",
+        "driver",
+        "running",
+        "on",
+        "bad",
+        "good",
+        "drives",
+        "stop_node",
+        "start_node",
+        "shutdown",
+        "power_up",
+    ]
+)
 _PDDL_NAME = re.compile(r"[a-z][a-z0-9_]*")
 
 
@@ -81,7 +101,7 @@ def pddl_names(components: Iterable[str]) -> tuple[tuple[str, str], ...]:
     out: list[tuple[str, str]] = []
     for comp in sorted(components):
         base = comp.lower()
-        if not _PDDL_NAME.fullmatch(base) or base in _RESERVED:
+        if not _PDDL_NAME.fullmatch(base) or base in _RESERVED or base in _DOMAIN_NAMES:
             base = "c_" + re.sub(r"[^a-z0-9_]", "_", base)
         name, k = base, 2
         while name in taken:

@@ -13,10 +13,10 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
-from rac.diagnosis import Literal, Theory
+from rac.diagnosis import Literal, Theory, predict
 from rac.errors import Diagnostic, RacError, did_you_mean
 from rac.ir import Model
-from rac.logic import Atom, mangle
+from rac.logic import mangle
 from rac.repair.engine import RepairResult, prepare, repair_system, solve
 from rac.repair.planner import DEFAULT_TIMEOUT_S
 from rac.repair.simulate import State
@@ -32,32 +32,12 @@ class Scenario:
     device: str | None = None  # device-shutdown: the device that goes off
 
 
-def closure(theory: Theory, faulty: Iterable[str]) -> frozenset[Atom]:
-    """Every atom the clauses derive from AB(faulty) and NAB(every other component)."""
-    broken = set(faulty)
-    facts: set[Atom] = {
-        Atom(theory.ab if c in broken else theory.nab, (c,)) for c in theory.components
-    }
-    pending = list(theory.clauses)
-    changed = True
-    while changed:  # naive fixpoint: the theories are small and this runs once
-        changed = False
-        rest = []
-        for clause in pending:
-            if all(a in facts for a in clause.body):
-                if clause.head not in facts:
-                    facts.add(clause.head)
-                    changed = True
-            else:
-                rest.append(clause)
-        pending = rest
-    return frozenset(facts)
-
-
 def observations(theory: Theory, faulty: Iterable[str]) -> tuple[Literal, ...]:
-    """Θ as the observers would report it, in ``props`` order."""
-    derived = closure(theory, faulty)
-    return tuple(Literal(p, p in derived, theory.neg_prefix) for p in theory.props)
+    """Θ as the observers would report it, in ``props`` order (``racc simulate``'s prediction).
+
+    A model server file without ``props`` observes every rule head, as ``racc simulate`` does.
+    """
+    return predict(theory, tuple(faulty))
 
 
 def power_up(system: RepairSystem) -> Scenario:

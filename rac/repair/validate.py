@@ -36,6 +36,7 @@ def validate_plan(
     """Return when the plan is valid; raise NoRepairPlan saying why when it is not."""
     try:
         from unified_planning.engines import ValidationResultStatus
+        from unified_planning.exceptions import UPException
         from unified_planning.io import PDDLReader  # noqa: F401  (fail here when missing)
         from unified_planning.shortcuts import PlanValidator, get_environment
     except ImportError:
@@ -46,8 +47,13 @@ def validate_plan(
             "or leave out --validate",
         ) from None
     get_environment().credits_stream = None  # its banner would pollute our output
-    reader, up_problem = _parsed(domain_text, problem_text)
-    up_plan = reader.parse_plan_string(up_problem, plan_text(problem, plan))
+    try:
+        reader, up_problem = _parsed(domain_text, problem_text)
+        up_plan = reader.parse_plan_string(up_problem, plan_text(problem, plan))
+    except UPException as err:
+        raise NoRepairPlan(
+            "RAC078", f"cannot validate the plan: unified-planning cannot read it: {err}"
+        ) from None
     with PlanValidator(problem_kind=up_problem.kind, plan_kind=up_plan.kind) as validator:
         result = validator.validate(up_problem, up_plan)
     if result.status is not ValidationResultStatus.VALID:

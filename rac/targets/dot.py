@@ -11,6 +11,8 @@ output is byte-identical from run to run.
 
 from __future__ import annotations
 
+import re
+from collections.abc import Mapping
 from dataclasses import dataclass
 from xml.sax.saxutils import escape
 
@@ -32,12 +34,17 @@ TOPIC_ID = "topic:"
 RELATIONS_PER_COLUMN = 6
 
 
+_DOT_SPECIAL = re.compile(r'[\\"\r\n]')
+
+
 def quote(text: str) -> str:
     """A DOT double-quoted string whose escString value is ``text`` verbatim.
 
     Backslashes are doubled so Graphviz's label escapes (``\\N``, ``\\G``,
     ``\\l``…) cannot fire by accident; a line break becomes DOT's ``\\n``.
     """
+    if _DOT_SPECIAL.search(text) is None:
+        return f'"{text}"'  # the usual name: nothing to escape
     body = text.replace("\\", "\\\\").replace('"', '\\"')
     return '"' + body.replace("\r\n", "\n").replace("\r", "\n").replace("\n", "\\n") + '"'
 
@@ -51,21 +58,12 @@ def _label(*lines: str) -> str:
     return quote("\n".join(lines))
 
 
-@dataclass(frozen=True, slots=True)
-class DotNode:
-    id: str  # quoted
-    kind: str  # a style key of the template
-    label: str  # quoted
-    tooltip: str  # quoted
-
-
-@dataclass(frozen=True, slots=True)
-class DotEdge:
-    tail: str  # quoted id
-    head: str  # quoted id
-    kind: str  # a style key of the template
-    label: str | None  # quoted, or None for an unlabelled edge
-    tooltip: str  # quoted
+# A node statement's parts, each quoted: id, style key of the template, label, tooltip.  Plain
+# tuples: a large model draws tens of thousands of them.
+DotNode = tuple[str, str, str, str]
+# An edge statement's parts: tail and head ids, style key, label (quoted, or None for an
+# unlabelled edge), tooltip (quoted).
+DotEdge = tuple[str, str, str, str | None, str]
 
 
 def _rate(topic: Topic | None) -> str:
@@ -136,6 +134,14 @@ class Diagram:
     relations: tuple[tuple[str, ...], ...]  # HTML text, rows of the related-signals note
 
 
+class _Quoted(dict[str, str]):
+    """``quote`` of each string asked for, remembered: ids recur in many statements."""
+
+    def __missing__(self, text: str) -> str:
+        self[text] = quoted = quote(text)
+        return quoted
+
+
 def _hardware(model: Model) -> tuple[DotNode, ...]:
     out = []
     for h in model.hardware:
@@ -147,11 +153,11 @@ def _hardware(model: Model) -> tuple[DotNode, ...]:
             )
         else:
             label, tip = _label(name), f"{name}: hardware"
-        out.append(DotNode(quote(name), "hardware", label, quote(tip)))
+        out.append((quote(name), "hardware", label, quote(tip)))
     return tuple(out)
 
 
-def _topics(model: Model) -> tuple[list[DotNode], list[DotEdge]]:
+def _topics(model: Model, quoted: _Quoted) -> tuple[list[DotNode], list[DotEdge]]:
     """Topic boxes and every publish/subscribe arrow."""
     topics = model.topic_by_name()
     publishers = model.publishers()
@@ -163,16 +169,28 @@ def _topics(model: Model) -> tuple[list[DotNode], list[DotEdge]]:
     # Topic names in declaration order, then any a node names without declaring
     # it (only an unvalidated model has those), so no topic goes undrawn.
     names = list(topics)
-    for node in model.nodes:
-        for ref in [*node.subscribes, *(p.topic for p in node.publishes)]:
-            if ref.value not in topics and ref.value not in names:
-                names.append(ref.value)
+    named = {ref.value for node in model.nodes for ref in node.subscribes}
+    named.update(p.topic.value for node in model.nodes for p in node.publishes)
+    if not named.issubset(topics):  # the rare case: keep the order the nodes name them in
+        for node in model.nodes:
+            for ref in [*node.subscribes, *(p.topic for p in node.publishes)]:
+                if ref.value not in topics and ref.value not in names:
+                    names.append(ref.value)
+
+    # A topic's line ("/pose @ 10 Hz") and tooltip, made once per topic.
+    lines: dict[str, str] = {}
+    tooltips: dict[str, str] = {}
+    for name in names:
+        topic = topics.get(name)
+        rate = _rate(topic)
+        lines[name] = f"{name} @ {rate}" if rate else name
+        details = [d for d in ((topic.msg_type if topic else None), rate) if d]
+        tooltips[name] = f"{name} ({', '.join(details)})" if details else name
 
     boxes: list[DotNode] = []
     box_edges: list[DotEdge] = []
     wires: dict[tuple[str, str], list[str]] = {}  # (publisher, subscriber) -> topics
     for name in names:
-        topic = topics.get(name)
         pubs, subs = publishers.get(name, ()), subscribers.get(name, [])
         if pubs and subs and len(pubs) * len(subs) <= MAX_WIRE_PAIRS:
             for pub in pubs:
@@ -180,24 +198,27 @@ def _topics(model: Model) -> tuple[list[DotNode], list[DotEdge]]:
                     wires.setdefault((pub, sub), []).append(name)
             continue
         tid = quote(TOPIC_ID + name)
-        tip = _topic_tooltip(name, topic)
+        tip = tooltips[name]
         kind = "topic" if pubs and subs else "loose_topic"
-        boxes.append(DotNode(tid, kind, quote(_topic_line(name, topic)), quote(tip)))
+        boxes.append((tid, kind, quote(lines[name]), quote(tip)))
         box_edges += [
-            DotEdge(quote(p), tid, "publish", None, quote(f"{p} publishes {tip}")) for p in pubs
+            (quoted[p], tid, "publish", None, quote(f"{p} publishes {tip}")) for p in pubs
         ]
         box_edges += [
-            DotEdge(tid, quote(s), "subscribe", None, quote(f"{s} subscribes {tip}")) for s in subs
+            (tid, quoted[s], "subscribe", None, quote(f"{s} subscribes {tip}")) for s in subs
         ]
 
     # Wires follow the order their first topic was declared in; a pair of nodes
     # joined by several topics gets one arrow listing them all.
-    wire_edges = []
+    wire_edges: list[DotEdge] = []
     for (pub, sub), carried in wires.items():
-        label = _label(*(_topic_line(t, topics.get(t)) for t in carried))
-        tips = ", ".join(_topic_tooltip(t, topics.get(t)) for t in carried)
+        if len(carried) == 1:
+            label, tips = quote(lines[carried[0]]), tooltips[carried[0]]
+        else:
+            label = _label(*(lines[t] for t in carried))
+            tips = ", ".join(tooltips[t] for t in carried)
         tip = quote(f"{pub} → {sub}: {tips}")
-        wire_edges.append(DotEdge(quote(pub), quote(sub), "wire", label, tip))
+        wire_edges.append((quoted[pub], quoted[sub], "wire", label, tip))
     return boxes, wire_edges + box_edges
 
 
@@ -206,23 +227,25 @@ def diagram(model: Model) -> Diagram:
     switchable = {h.name.value for h in model.hardware if h.switchable}
     hardware_names = {h.name.value for h in model.hardware}
     hardware = _hardware(model)
-    nodes = []
+    quoted = _Quoted()
+    nodes: list[DotNode] = []
     for node in model.nodes:
-        kind = node_class(node, switchable, hardware_names)
-        label, tip = _label(node.name.value), _node_tooltip(node, kind)
-        nodes.append(DotNode(quote(node.name.value), kind, label, tip))
-    boxes, flows = _topics(model)
+        kind = node_class(node, switchable, hardware_names) if node.drives else "n"
+        nid = quoted[node.name.value]  # its label too: one line, the name
+        nodes.append((nid, kind, nid, _node_tooltip(node, kind)))
+    boxes, flows = _topics(model, quoted)
 
     # Hardware is the tail, so a device is drawn just above its driver.
-    links = [
-        DotEdge(
-            quote(hw.value),
-            quote(node.name.value),
+    links: list[DotEdge] = [
+        (
+            quoted[hw.value],
+            quoted[node.name.value],
             "hardware_link",
             None,
             quote(f"{node.name.value} drives {hw.value}"),
         )
         for node in model.nodes
+        if node.drives
         for hw in node.drives
         if hw.value in hardware_names
     ]
@@ -230,9 +253,11 @@ def diagram(model: Model) -> Diagram:
     # dotted link stays short and the diagram no wider for it.
     beside = []
     for node in model.nodes:
-        devices = [quote(h.value) for h in node.drives if h.value in hardware_names]
+        if not node.drives:
+            continue
+        devices = [quoted[h.value] for h in node.drives if h.value in hardware_names]
         if devices:
-            beside.append((quote(node.name.value), *devices))
+            beside.append((quoted[node.name.value], *devices))
 
     # The note lists pairs column by column; short columns are padded with "".
     lines = [html_text(line) for line in _relation_lines(model.related, model.intervals)]
@@ -254,5 +279,43 @@ def diagram(model: Model) -> Diagram:
     )
 
 
+def node_statements(nodes: tuple[DotNode, ...], style: Mapping[str, str]) -> str:
+    """``  ID [STYLE, label=…, tooltip=…];`` for each node, one a line.
+
+    The template's loop, written in Python: a large model draws tens of thousands.
+    """
+    heads = {kind: f" [{attributes}, label=" for kind, attributes in style.items()}
+    return "".join(
+        [f"  {nid}{heads[kind]}{label}, tooltip={tip}];\n" for nid, kind, label, tip in nodes]
+    )
+
+
+def edge_statements(edges: tuple[DotEdge, ...], style: Mapping[str, str]) -> str:
+    """``  TAIL -> HEAD [STYLE, label=…, tooltip=…];`` for each edge, one a line.
+
+    An empty style and a missing label are left out.
+    """
+    heads = {kind: f" [{attributes}, " if attributes else " [" for kind, attributes in style.items()}
+    return "".join(
+        [
+            f"  {tail} -> {head}{heads[kind]}label={label}, tooltip={tip}];\n"
+            if label
+            else f"  {tail} -> {head}{heads[kind]}tooltip={tip}];\n"
+            for tail, head, kind, label, tip in edges
+        ]
+    )
+
+
+def rank_statements(beside: tuple[tuple[str, ...], ...]) -> str:
+    """``  { rank=same; A; B; }`` for each group of ids drawn in one rank."""
+    return "".join([f"  {{ rank=same; {'; '.join(ids)}; }}\n" for ids in beside])
+
+
 def emit_dot(compiled: Compiled, options: EmitOptions) -> str:
-    return render("architecture.dot.j2", d=diagram(compiled.model))
+    return render(
+        "architecture.dot.j2",
+        d=diagram(compiled.model),
+        node_statements=node_statements,
+        edge_statements=edge_statements,
+        rank_statements=rank_statements,
+    )

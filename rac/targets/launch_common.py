@@ -2,22 +2,14 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
 
 from rac.pipeline import Compiled
 from rac.targets import EmitOptions
-from rac.targets.templating import render, xmlparams
+from rac.targets.templating import render, xmlattr
 
 MODEL_SERVER_EXECUTABLE = "diagnosis_model_server.py"
 MODEL_SERVER_NAME = "diagnosis_model_server"
-
-
-@dataclass(frozen=True, slots=True)
-class LaunchNode:
-    package: str
-    executable: str
-    name: str
-    params_xml: str  # the node's <param> lines, already escaped
 
 
 def param_text(value: object) -> str:
@@ -26,22 +18,75 @@ def param_text(value: object) -> str:
     return str(value)
 
 
-def launch_nodes(compiled: Compiled, options: EmitOptions) -> tuple[LaunchNode, ...]:
-    """The observer nodes, computed once per compilation for both launch files."""
-    key = ("launch_nodes", options)
-    cached = compiled.memo.get(key)
-    if cached is None:
-        cached = compiled.memo[key] = tuple(
-            LaunchNode(
-                options.observers_package,
-                f"{o.kind}.py",
-                o.name,
-                xmlparams((k, param_text(v)) for k, v in o.params),
+def observer_nodes(compiled: Compiled, options: EmitOptions) -> Callable[[str], str]:
+    """The observer nodes' text, given the attribute naming a node's executable.
+
+    ``observer_nodes(compiled, options)("type")`` is every observer node as ROS 1 writes it
+    (ROS 2 says ``exec``), each after a blank line::
+
+          <node pkg="PACKAGE" type="KIND.py" name="NAME">
+            <param name="KEY" value="VALUE"/>
+          </node>
+
+    with one ``<param>`` line per parameter.  A large model has forty thousand observers
+    and a quarter of a million parameters: a template loop over them took most of the
+    launch files' time, so the nodes are written here, once per compilation for both
+    launch files (``Compiled.memo``), and the templates place them.
+    """
+    key = ("launch_observer_nodes", options)
+    tails = compiled.memo.get(key)
+    if tails is None:
+        tails = compiled.memo[key] = _node_tails(compiled)
+    assert isinstance(tails, list)
+    opening = f"\n  <node pkg={xmlattr(options.observers_package)} "
+    return lambda attribute: (opening + attribute).join(tails)
+
+
+def _node_tails(compiled: Compiled) -> list[str]:
+    """``["", tail, tail, ...]``: each node's text from ``="KIND.py"`` on."""
+    quoted: dict[str, str] = {}  # xmlattr of a string
+    floats: dict[float, str] = {}  # xmlattr(repr(x)); never 0.0, whose sign shows
+    get = quoted.get
+
+    def string(text: str) -> str:
+        quoted[text] = found = xmlattr(text)
+        return found
+
+    def other(value: object) -> str:
+        """``xmlattr(param_text(value))`` for anything but a str."""
+        if type(value) is int:
+            return f'"{value}"'  # digits and '-': nothing to escape
+        if type(value) is float and value:
+            found = floats.get(value)
+            if found is None:
+                found = floats[value] = xmlattr(repr(value))
+            return found
+        return xmlattr(param_text(value))
+
+    heads: dict[tuple[str, ...], tuple[str, ...]] = {}  # keys -> '    <param name="K" value='
+    tails = [""]
+    append = tails.append
+    for o in compiled.observers:
+        params = o.params
+        if params:
+            keys, values = zip(*params)
+            lead = heads.get(keys)
+            if lead is None:
+                lead = heads[keys] = tuple(f"    <param name={xmlattr(k)} value=" for k in keys)
+            lines = "".join(
+                [
+                    f"{head}{(get(v) or string(v)) if type(v) is str else other(v)}/>\n"
+                    for head, v in zip(lead, values)
+                ]
             )
-            for o in compiled.observers
+        else:
+            lines = ""
+        executable = f"{o.kind}.py"
+        append(
+            f"={get(executable) or string(executable)} name={xmlattr(o.name)}>\n"
+            f"{lines}  </node>\n"
         )
-    assert isinstance(cached, tuple)
-    return cached
+    return tails
 
 
 def render_launch(template: str, compiled: Compiled, options: EmitOptions) -> str:
@@ -52,5 +97,5 @@ def render_launch(template: str, compiled: Compiled, options: EmitOptions) -> st
         model_package=options.model_server_package,
         model_executable=MODEL_SERVER_EXECUTABLE,
         model_name=MODEL_SERVER_NAME,
-        nodes=launch_nodes(compiled, options),
+        observer_nodes=observer_nodes(compiled, options),
     )

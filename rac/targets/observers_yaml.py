@@ -8,6 +8,8 @@ from rac.passes.observers import ObserverSpec
 from rac.pipeline import Compiled
 from rac.targets import EmitOptions, yaml_text
 
+_NEXT_REPORT = "\n  - "  # between two items of an entry's reports
+
 
 def emit_observers_yaml(compiled: Compiled, options: EmitOptions) -> str:
     name = compiled.model.name.value
@@ -36,24 +38,57 @@ def _document(name: str, observers: tuple[ObserverSpec, ...]) -> dict[str, Any]:
 
 
 def _entries(name: str, observers: tuple[ObserverSpec, ...]) -> str:
-    """``yaml_text.dump(_document(...))``, written entry by entry; NotSimple when unsure."""
+    """``yaml_text.dump(_document(...))``, written entry by entry; NotSimple when unsure.
+
+    A plain string is written as itself, so every string goes into the text at once and
+    all of them are checked together at the end (:func:`yaml_text.check_plain`); numbers
+    are formatted as they come.
+    """
     if not observers:
         raise yaml_text.NotSimple
-    strings: dict[Any, str] = {}  # every string found plain, by itself (never a number)
+    strings: dict[Any, str] = {}  # what scalar() found plain, for anything not a str
     get, scalar = strings.get, yaml_text.scalar
+    floats: dict[float, str] = {}  # never 0.0, whose text depends on its sign
+
+    def number(value: Any) -> str:
+        if type(value) is float and value:
+            text = floats.get(value)
+            if text is None:
+                text = floats[value] = scalar(value, strings)
+            return text
+        return get(value) or scalar(value, strings)
+
+    heads: dict[tuple[str, ...], tuple[str, ...]] = {}  # parameter keys -> "    key: "
+    words: list[Any] = []  # every string written as itself, to check at the end
+    extend, remember = words.extend, words.append
     out = [f"robot: {scalar(name, strings)}\nobservers:\n"]
+    append = out.append
     for o in observers:
-        keys = [k for k, _ in o.params]
-        if not o.params or not o.atoms or len(set(keys)) != len(keys) or max(map(len, keys)) > 120:
-            raise yaml_text.NotSimple  # '{}', '[]', merged or complex keys: leave them to dump()
-        params = "".join(
-            f"    {get(k) or scalar(k, strings)}: {get(v) or scalar(v, strings)}\n"
-            for k, v in o.params
+        params, atoms, kind, label = o.params, o.atoms, o.kind, o.name
+        if not params or not atoms or type(kind) is not str or type(label) is not str:
+            raise yaml_text.NotSimple  # '{}', '[]' or an odd type: leave them to dump()
+        keys, values = zip(*params)
+        lead = heads.get(keys)
+        if lead is None:
+            if len(set(keys)) != len(keys) or max(map(len, keys)) > 120:
+                raise yaml_text.NotSimple  # merged or complex keys: leave them to dump()
+            lead = heads[keys] = tuple(f"    {get(k) or scalar(k, strings)}: " for k in keys)
+        reports = [str(a) for a in atoms]
+        extend(values)
+        extend(reports)
+        remember(kind)
+        remember(label)
+        lines = "".join(
+            [
+                f"{head}{value}\n"
+                if type(value) is str or type(value) is int
+                else f"{head}{number(value)}\n"
+                for head, value in zip(lead, values)
+            ]
         )
-        reports = "".join(f"  - {scalar(str(a), strings)}\n" for a in o.atoms)
-        out.append(
-            f"- kind: {get(o.kind) or scalar(o.kind, strings)}\n"
-            f"  name: {get(o.name) or scalar(o.name, strings)}\n"
-            f"  params:\n{params}  reports:\n{reports}"
+        append(
+            f"- kind: {kind}\n  name: {label}\n  params:\n{lines}"
+            f"  reports:\n  - {_NEXT_REPORT.join(reports)}\n"
         )
+    yaml_text.check_plain(words)
     return "".join(out)

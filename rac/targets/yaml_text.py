@@ -13,6 +13,7 @@ default_flow_style=False, width=1000)``.
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 from typing import Any
 
 import yaml
@@ -31,6 +32,38 @@ _IMPLICIT = {
     if first is not None
 }
 _LONG = WIDTH - 200  # below this length no line can reach the width
+
+
+def _safe_pattern() -> re.Pattern[str]:
+    """One regex matching exactly the strings :func:`_plain` accepts.
+
+    ``_PLAIN`` with its first word never ending in ':' (so no ': ' and no trailing ':'),
+    behind a lookahead that rejects whatever an implicit resolver for the string's first
+    character (or a wildcard resolver, for any other first character) would match.
+    """
+    word, first_word = r"[A-Za-z0-9_/().,~+<>=\-]", r"[A-Za-z0-9_/().,:~+<>=\-]"
+    plain = rf"[A-Za-z_/](?:{first_word}*{word})?(?: {word}+)*"
+
+    def any_of(regexps: tuple[re.Pattern[str], ...]) -> str:
+        return "|".join(f"(?x:{r.pattern})" for r in regexps) or "(?!)"
+
+    # First characters grouped by their resolvers ('' is never a first character).
+    groups: dict[tuple[re.Pattern[str], ...], str] = {}
+    for first, regexps in _IMPLICIT.items():
+        if first:
+            groups[regexps] = groups.get(regexps, "") + re.escape(first)
+    branches = [f"(?=[{firsts}])(?:{any_of(regexps)})" for regexps, firsts in groups.items()]
+    firsts = "".join(re.escape(first) for first in _IMPLICIT if first)
+    if _WILDCARD:
+        branches.append(f"(?![{firsts}])(?:{any_of(_WILDCARD)})")
+        guard = ""
+    else:
+        guard = f"(?=[{firsts}])"  # no resolver for any other first character: done
+    return re.compile(f"(?!{guard}(?:{'|'.join(branches)})){plain}" if branches else plain)
+
+
+# ``_SAFE.fullmatch(s)`` is ``_plain(s)`` without the exception: one C call per string.
+_SAFE = _safe_pattern()
 
 
 class NotSimple(Exception):
@@ -69,8 +102,49 @@ def dump(doc: dict[str, Any]) -> str:
         return yaml.safe_dump(doc, sort_keys=False, default_flow_style=False, width=WIDTH)
 
 
+def check_plain(texts: Iterable[Any]) -> None:
+    """NotSimple unless every string among ``texts`` is what :func:`scalar` writes for it.
+
+    :func:`scalar` writes a plain string as itself, so an emitter may write strings first
+    and have them all checked here at once; anything not a string is skipped.
+    """
+    strings = [text for text in set(texts) if type(text) is str]
+    if not all(map(_SAFE.fullmatch, strings)):
+        raise _NotSimple
+    if strings and max(map(len, strings)) > _LONG:
+        for text in strings:
+            if len(text) > _LONG and " " in text:
+                raise _NotSimple
+
+
+def plain_list(key: str, items: list[str]) -> str:
+    """``dump({key: items})`` for a list of strings, or NotSimple when unsure.
+
+    One regex call per item and one join: model.yaml lists a hundred thousand atoms and
+    rules, nearly all distinct, so a cache would not pay for itself.
+    """
+    if type(key) is not str or len(key) > 120 or _SAFE.fullmatch(key) is None:
+        raise _NotSimple
+    if not items:
+        return f"{key}: []\n"
+    if not all(type(item) is str for item in items) or not all(map(_SAFE.fullmatch, items)):
+        raise _NotSimple
+    if max(map(len, items)) > _LONG:
+        for item in items:
+            if len(item) > _LONG:
+                _fold_check("- ", item)
+    return f"{key}:\n- " + "\n- ".join(items) + "\n"
+
+
 def _plain(value: str) -> str:
     """``value`` when PyYAML writes it as a plain scalar that reads back as this string."""
+    if _SAFE.fullmatch(value) is None:
+        raise _NotSimple
+    return value
+
+
+def _plain_slow(value: str) -> str:
+    """:func:`_plain` spelled out, resolver by resolver (the reference ``_SAFE`` must match)."""
     if _PLAIN.fullmatch(value) is None or value.endswith(":") or ": " in value:
         raise _NotSimple
     for regexp in _IMPLICIT.get(value[0], _WILDCARD):
