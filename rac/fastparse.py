@@ -163,6 +163,9 @@ _BODY_LINE = re.compile(
     rf"|limits{_S}+((?:{_plain(_LIMIT_S.pattern)})(?:{_S}*,{_S}*(?:{_plain(_LIMIT_S.pattern)}))*))"
     rf"{_S}*(;)?)?{_S}*(#[^\n]*)?\n"
 )
+_CPU_MEM = re.compile(
+    rf"cpu{_S}+({_A_NUMBER}){_S}*%{_S}*,{_S}*mem{_S}+({_A_NUMBER}){_S}*({_UNITS}){_END}"
+)
 _CLOSE_LINE = re.compile(rf"{_S}*\}}{_TAIL}")
 _RELATE_LINE = re.compile(rf"relate{_S}+({_A_FIELD_REF}){_S}*~{_S}*({_A_FIELD_REF}){_TAIL}")
 _INTERVAL_LINE = re.compile(
@@ -463,11 +466,13 @@ class _Reader:
         """The items of ``run``, a comma-separated run of names or fields matched at
         ``start`` on line ``line`` (whose first character is at ``base + 1``)."""
         path = self.path
+        column = start - base
+        if "," not in run:  # one item
+            names.append(_name(run, _span(path, line, column, line, column + len(run))))
+            return
         items = run.split(", ")
-        count = len(items)
-        if count == run.count(",") + 1 == run.count(" ") + 1 and run.isprintable():
+        if len(items) == run.count(",") + 1 == run.count(" ") + 1 and run.isprintable():
             # Exactly ', ' between the items (the usual layout): no regex needed.
-            column = start - base
             for value in items:
                 end = column + len(value)
                 names.append(_name(value, _span(path, line, column, line, end)))
@@ -596,7 +601,10 @@ class _Reader:
             elif limit_run is not None:
                 cpu: float | None = None
                 mem: int | None = None
-                for limit in _LIMIT_S.finditer(limit_run):
+                if (both := _CPU_MEM.fullmatch(limit_run)) is not None:  # the usual layout
+                    cpu = float(both[1])
+                    mem = round(float(both[2]) * MEM_UNITS[both[3]])
+                for limit in () if both is not None else _LIMIT_S.finditer(limit_run):
                     if limit["cpu"] is not None:
                         if cpu is None:
                             cpu = float(limit["cpu"])

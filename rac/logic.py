@@ -75,7 +75,12 @@ def split_body(text: str) -> list[str]:
             parts.append(text[start:i])
             start = i + 1
     parts.append(text[start:])
-    return [p.strip() for p in parts if p.strip()]
+    stripped = [p.strip() for p in parts]
+    if stripped == [""]:
+        return []  # an empty body: a fact
+    if "" in stripped:
+        raise ValueError(f"an empty atom between commas: {text!r}")
+    return stripped
 
 
 def parse_clause(text: str) -> Clause:

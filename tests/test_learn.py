@@ -169,6 +169,21 @@ def test_fewer_relations_for_higher_q(robot: Robot, ros1_recording: Recording) -
     assert counts[0] > counts[2]
 
 
+def test_base_relations_not_learned_again_are_named(
+    robot: Robot, ros1_recording: Recording
+) -> None:
+    result = _learn(robot, ros1_recording, q=0.95)
+    learned = _related(result)
+    dropped = [
+        f"{r.a.text} ~ {r.b.text}"
+        for r in robot.model.related
+        if frozenset((r.a.text, r.b.text)) not in learned
+    ]
+    assert dropped, "Q 0.95 should lose some of the base's relations"
+    note = next(n for n in result.notes if n.startswith("relations of the base model"))
+    assert all(d in note for d in dropped)
+
+
 def test_fewer_frequency_observers_for_higher_alpha(
     robot: Robot, ros1_recording: Recording
 ) -> None:

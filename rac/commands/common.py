@@ -74,10 +74,13 @@ def write_files_atomically(directory: Path, files: Mapping[str, str | bytes]) ->
 def write_file_atomically(path: Path, content: str) -> None:
     """Replace one file atomically (a temp file beside it, then a rename)."""
     path = path.resolve()
+    tmp: str | None = None
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as handle:
             handle.write(content)
         os.replace(tmp, path)
     except OSError as err:
+        if tmp is not None and os.path.exists(tmp):
+            os.unlink(tmp)  # nothing half-written is left behind
         raise RacError([Diagnostic("RAC004", f"{path}: cannot write: {err}")]) from None

@@ -21,6 +21,7 @@ from rac.repair import (
     PLANNER,
     STRATEGIES,
     NoRepairPlan,
+    Prepared,
     RepairResult,
     Step,
     prepare,
@@ -124,10 +125,26 @@ def report(result: RepairResult) -> str:
     how = f"{prepared.strategy} strategy, {count} minimal diagnos{'is' if count == 1 else 'es'}"
     lines = [
         f"diagnosis: bad {{{', '.join(prepared.bad)}}} ({how})",
-        f"plan ({len(result.plan)} steps, {PLANNER}):",
+        f"plan ({len(result.plan)} step{'' if len(result.plan) == 1 else 's'}, {PLANNER}):",
         *plan_lines(result.plan),
     ]
+    skipped = _skipped_diagnoses(prepared)
+    if skipped:
+        lines.append(
+            "note: also possible, but no action can repair it: "
+            + "; ".join(f"{{{', '.join(d)}}}" for d in skipped)
+            + " (check that hardware by hand if the fault persists)"
+        )
     return "\n".join(lines)
+
+
+def _skipped_diagnoses(prepared: Prepared) -> list[tuple[str, ...]]:
+    """Minimum-cardinality diagnoses the minimal strategy left out as unrepairable."""
+    if prepared.strategy != "minimal" or not prepared.diagnosis.diagnoses:
+        return []
+    fewest = min(len(d) for d in prepared.diagnosis.diagnoses)
+    chosen = set(prepared.bad)
+    return [d for d in prepared.diagnosis.diagnoses if len(d) == fewest and not set(d) <= chosen]
 
 
 def run(args: argparse.Namespace) -> int:

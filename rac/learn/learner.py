@@ -273,6 +273,8 @@ def learn(
     nodes = [_limits(n, properties, options.sigmas) for n in nodes]
     declared = {t.name.value for t in learned_topics}
     related, kept = _learn_relations(recording, options, declared, published & declared, undeclared)
+    if base is not None:
+        _note_dropped_relations(base, related, options, notes)
     needed: dict[str, list[str]] = {}
     for r in related:
         for ref in (r.a, r.b):
@@ -296,6 +298,23 @@ def learn(
         trailing_comments=tuple(trailing),
     )
     return LearnResult(model, tuple(rates), tuple(kept), tuple(properties), tuple(notes), options)
+
+
+def _note_dropped_relations(
+    base: Model, related: Sequence[Related], options: LearnOptions, notes: list[str]
+) -> None:
+    """A base model's ``relate`` lines are replaced by the learned ones: say which went."""
+    found = {frozenset((r.a.text, r.b.text)) for r in related}
+    dropped = [
+        f"{r.a.text} ~ {r.b.text}"
+        for r in base.related
+        if frozenset((r.a.text, r.b.text)) not in found
+    ]
+    if dropped:
+        notes.append(
+            f"relations of the base model not found in the recording at Q {options.q:g}, "
+            f"dropped: {'; '.join(dropped)}"
+        )
 
 
 def _with_fields(topic: Topic, needed: list[str]) -> Topic:

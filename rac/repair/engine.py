@@ -91,8 +91,9 @@ def prepare(
             hint="check the observations with 'racc diagnose'; they may contradict each other "
             "or the model",
         )
-    bad = () if result.consistent else choose_bad(result.diagnoses, strategy)
     system = repair_system(theory)
+    repairable = lambda c: not system.unrepairable((c,))  # noqa: E731
+    bad = () if result.consistent else choose_bad(result.diagnoses, strategy, repairable)
     problem = make_problem(robot, system, observations, bad, theory.neg_prefix)
     return Prepared(
         observations=tuple(observations),

@@ -18,6 +18,7 @@ from rac.errors import Diagnostic, RacError, did_you_mean
 from rac.ir import Model
 from rac.logic import mangle
 from rac.repair.engine import RepairResult, prepare, repair_system, solve
+from rac.repair.errors import NoRepairPlan
 from rac.repair.planner import DEFAULT_TIMEOUT_S
 from rac.repair.simulate import State
 from rac.repair.system import Kind, RepairSystem
@@ -134,6 +135,14 @@ def run_scenario(
 ) -> ScenarioResult:
     """Break the robot as the scenario says, diagnose what the observers see, plan the repair."""
     scenario = make_scenario(theory, name, device)
+    if scenario.device is not None and repair_system(theory).unrepairable((scenario.device,)):
+        # The experiment power-cycles the device; one off the board cannot come back.
+        raise NoRepairPlan(
+            "RAC071",
+            f"no repair action can make {scenario.device} good: it is hardware that is not "
+            "switchable, so it cannot be powered up again",
+            hint="pick a switchable device with --device",
+        )
     theta = observations(theory, scenario.faulty)
     prepared = prepare(theory, theta, robot)
     return ScenarioResult(scenario, solve(prepared, timeout_s))

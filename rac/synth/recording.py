@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import heapq
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from rosbags.interfaces import Connection
 from rosbags.rosbag1 import Writer as Writer1
 from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
@@ -170,34 +171,34 @@ def _in_time_order(plan: Plan) -> Iterator[tuple[int, int]]:
 def write_recording(plan: Plan, path: Path) -> int:
     """Write the bag (a ROS 1 file or a ROS 2 directory) at a path that must not exist yet."""
     store = plan.store
-    serialize = store.serialize_ros1 if plan.options.ros_version == 1 else store.serialize_cdr
-    count = 0
     if plan.options.ros_version == 1:
-        with Writer1(path) as writer:
-            conns1 = [
-                writer.add_connection(
+        with Writer1(path) as writer1:
+            conns = [
+                writer1.add_connection(
                     t.name, t.typename, typestore=store, callerid=f"/{t.publisher}"
                 )
                 for t in plan.topics
             ]
-            for k, i in _in_time_order(plan):
-                topic = plan.topics[k]
-                stamp = round((plan.start_s + float(topic.times[i])) * 1e9)
-                writer.write(
-                    conns1[k], stamp, serialize(build_message(plan, topic, i), topic.typename)
-                )
-                count += 1
-        return count
+            return _write_messages(plan, conns, writer1.write, store.serialize_ros1)
     plugin = StoragePlugin.MCAP if plan.options.storage == "mcap" else StoragePlugin.SQLITE3
     with Writer2(path, version=9, storage_plugin=plugin) as writer2:
-        conns2 = [writer2.add_connection(t.name, t.typename, typestore=store) for t in plan.topics]
-        for k, i in _in_time_order(plan):
-            topic = plan.topics[k]
-            stamp = round((plan.start_s + float(topic.times[i])) * 1e9)
-            writer2.write(
-                conns2[k], stamp, serialize(build_message(plan, topic, i), topic.typename)
-            )
-            count += 1
+        conns = [writer2.add_connection(t.name, t.typename, typestore=store) for t in plan.topics]
+        return _write_messages(plan, conns, writer2.write, store.serialize_cdr)
+
+
+def _write_messages(
+    plan: Plan,
+    conns: Sequence[Connection],
+    write: Callable[[Connection, int, memoryview], None],
+    serialize: Callable[[object, str], memoryview],
+) -> int:
+    """Every planned message, in time order, through one bag writer; how many."""
+    count = 0
+    for k, i in _in_time_order(plan):
+        topic = plan.topics[k]
+        stamp = round((plan.start_s + float(topic.times[i])) * 1e9)
+        write(conns[k], stamp, serialize(build_message(plan, topic, i), topic.typename))
+        count += 1
     return count
 
 

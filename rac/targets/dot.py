@@ -295,7 +295,9 @@ def edge_statements(edges: tuple[DotEdge, ...], style: Mapping[str, str]) -> str
 
     An empty style and a missing label are left out.
     """
-    heads = {kind: f" [{attributes}, " if attributes else " [" for kind, attributes in style.items()}
+    heads = {
+        kind: f" [{attributes}, " if attributes else " [" for kind, attributes in style.items()
+    }
     return "".join(
         [
             f"  {tail} -> {head}{heads[kind]}label={label}, tooltip={tip}];\n"

@@ -69,22 +69,21 @@ def _node_tails(compiled: Compiled) -> list[str]:
     for o in compiled.observers:
         params = o.params
         if params:
-            keys, values = zip(*params)
+            keys, values = zip(*params, strict=True)
             lead = heads.get(keys)
             if lead is None:
                 lead = heads[keys] = tuple(f"    <param name={xmlattr(k)} value=" for k in keys)
             lines = "".join(
                 [
                     f"{head}{(get(v) or string(v)) if type(v) is str else other(v)}/>\n"
-                    for head, v in zip(lead, values)
+                    for head, v in zip(lead, values, strict=True)
                 ]
             )
         else:
             lines = ""
         executable = f"{o.kind}.py"
         append(
-            f"={get(executable) or string(executable)} name={xmlattr(o.name)}>\n"
-            f"{lines}  </node>\n"
+            f"={get(executable) or string(executable)} name={xmlattr(o.name)}>\n{lines}  </node>\n"
         )
     return tails
 

@@ -45,7 +45,7 @@ def _texts(compiled: Compiled) -> tuple[list[str], list[str]]:
         return found
 
     props = [get(id(a)) or text(a) for a in compiled.props]
-    rules = []
+    rules: list[str] = []
     append = rules.append
     for c in compiled.rbm:
         body, head = c.body, c.head

@@ -59,22 +59,24 @@ def _entries(name: str, observers: tuple[ObserverSpec, ...]) -> str:
         return get(value) or scalar(value, strings)
 
     heads: dict[tuple[str, ...], tuple[str, ...]] = {}  # parameter keys -> "    key: "
-    words: list[Any] = []  # every string written as itself, to check at the end
-    extend, remember = words.extend, words.append
+    # Every string written as itself, to check at the end: names (all str) and values.
+    names: list[str] = []
+    values_seen: list[Any] = []
+    extend, remember, extend_values = names.extend, names.append, values_seen.extend
     out = [f"robot: {scalar(name, strings)}\nobservers:\n"]
     append = out.append
     for o in observers:
         params, atoms, kind, label = o.params, o.atoms, o.kind, o.name
         if not params or not atoms or type(kind) is not str or type(label) is not str:
             raise yaml_text.NotSimple  # '{}', '[]' or an odd type: leave them to dump()
-        keys, values = zip(*params)
+        keys, values = zip(*params, strict=True)
         lead = heads.get(keys)
         if lead is None:
             if len(set(keys)) != len(keys) or max(map(len, keys)) > 120:
                 raise yaml_text.NotSimple  # merged or complex keys: leave them to dump()
             lead = heads[keys] = tuple(f"    {get(k) or scalar(k, strings)}: " for k in keys)
         reports = [str(a) for a in atoms]
-        extend(values)
+        extend_values(values)
         extend(reports)
         remember(kind)
         remember(label)
@@ -83,12 +85,14 @@ def _entries(name: str, observers: tuple[ObserverSpec, ...]) -> str:
                 f"{head}{value}\n"
                 if type(value) is str or type(value) is int
                 else f"{head}{number(value)}\n"
-                for head, value in zip(lead, values)
+                for head, value in zip(lead, values, strict=True)
             ]
         )
         append(
             f"- kind: {kind}\n  name: {label}\n  params:\n{lines}"
             f"  reports:\n  - {_NEXT_REPORT.join(reports)}\n"
         )
-    yaml_text.check_plain(words)
+    written = set(names)
+    written.update([v for v in set(values_seen) if type(v) is str])
+    yaml_text.check_plain(written)
     return "".join(out)

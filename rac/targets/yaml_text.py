@@ -13,7 +13,7 @@ default_flow_style=False, width=1000)``.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable
+from collections.abc import Collection
 from typing import Any
 
 import yaml
@@ -102,13 +102,12 @@ def dump(doc: dict[str, Any]) -> str:
         return yaml.safe_dump(doc, sort_keys=False, default_flow_style=False, width=WIDTH)
 
 
-def check_plain(texts: Iterable[Any]) -> None:
-    """NotSimple unless every string among ``texts`` is what :func:`scalar` writes for it.
+def check_plain(strings: Collection[str]) -> None:
+    """NotSimple unless :func:`scalar` writes each of ``strings`` (all str) as itself.
 
     :func:`scalar` writes a plain string as itself, so an emitter may write strings first
-    and have them all checked here at once; anything not a string is skipped.
+    and have them checked here all at once, each distinct one a single regex call.
     """
-    strings = [text for text in set(texts) if type(text) is str]
     if not all(map(_SAFE.fullmatch, strings)):
         raise _NotSimple
     if strings and max(map(len, strings)) > _LONG:
