@@ -177,47 +177,43 @@ _NO_LIMITS = Limits()
 _ITEM = re.compile(r"[^ \t\f\r,]+")
 
 
+class _Span:
+    """Builds a :class:`Span`: the same slots, set without the frozen dataclass's
+    ``__init__`` (five ``object.__setattr__`` calls, half the cost of reading a name), then
+    the object becomes the ``Span`` it was laid out as."""
+
+    __slots__ = ("file", "line", "column", "end_line", "end_column")
+
+    def __init__(self, file: str, line: int, column: int, end_line: int, end_column: int) -> None:
+        self.file = file
+        self.line = line
+        self.column = column
+        self.end_line = end_line
+        self.end_column = end_column
+        self.__class__ = Span  # type: ignore[assignment]
+
+
+class _Name:
+    """Builds a :class:`Name` as :class:`_Span` builds a ``Span``."""
+
+    __slots__ = ("value", "span")
+
+    def __init__(self, value: str, span: Span) -> None:
+        self.value = value
+        self.span = span
+        self.__class__ = Name  # type: ignore[assignment]
+
+
 def _constructors() -> tuple[Callable[[str, int, int, int, int], Span], Callable[[str, Span], Name]]:
-    """``Span`` and ``Name`` constructors for the one-line shortcuts.
-
-    A large model holds hundreds of thousands of names, and the ``__init__`` of a frozen
-    dataclass sets each field through ``object.__setattr__``, about half the cost of reading
-    a name.  These set the same slots through the classes' own slot descriptors, which is
-    what that ``__init__`` does, at half the cost; should either class ever gain a field or
-    a ``__post_init__``, the plain classes are used instead."""
-    span_fields = tuple(f.name for f in dataclasses.fields(Span))
-    name_fields = tuple(f.name for f in dataclasses.fields(Name))
-    if (
-        span_fields != ("file", "line", "column", "end_line", "end_column")
-        or name_fields != ("value", "span")
-        or getattr(Span, "__slots__", None) != span_fields
-        or getattr(Name, "__slots__", None) != name_fields
-        or hasattr(Span, "__post_init__")
-        or hasattr(Name, "__post_init__")
-    ):
-        return Span, Name
-    new = object.__new__
-    set_file, set_line, set_column, set_end_line, set_end_column = (
-        vars(Span)[field].__set__ for field in span_fields
-    )
-    set_value, set_span = (vars(Name)[field].__set__ for field in name_fields)
-
-    def span(file: str, line: int, column: int, end_line: int, end_column: int) -> Span:
-        made = new(Span)
-        set_file(made, file)
-        set_line(made, line)
-        set_column(made, column)
-        set_end_line(made, end_line)
-        set_end_column(made, end_column)
-        return made
-
-    def name(value: str, span: Span) -> Name:
-        made = new(Name)
-        set_value(made, value)
-        set_span(made, span)
-        return made
-
-    return span, name
+    """The fast builders if ``Span`` and ``Name`` are still laid out as they expect (the
+    fields, and nothing run on construction but setting them), else the classes themselves."""
+    for cls, twin in ((Span, _Span), (Name, _Name)):
+        fields = tuple(f.name for f in dataclasses.fields(cls))  # type: ignore[arg-type]
+        if getattr(cls, "__slots__", None) != fields or fields != twin.__slots__:
+            return Span, Name
+        if hasattr(cls, "__post_init__"):
+            return Span, Name
+    return _Span, _Name  # type: ignore[return-value]
 
 
 _span, _name = _constructors()

@@ -238,6 +238,14 @@ def _learn_relations(
                 f"{rel.evidence()} (a topic has no known publisher)"
             )
             continue
+        if rel.integrated:
+            # The binary qualitative observer compares raw trends: declared, a pair that only
+            # matches with one side integrated would read "not matched" on a healthy robot.
+            undeclared.append(
+                f"relate {rel.a[0]}.{rel.a[1]} ~ {rel.b[0]}.{rel.b[1]}: {rel.evidence()} "
+                "(not declared: the observer cannot integrate a signal)"
+            )
+            continue
         related.append(Related(FieldRef(*rel.a), FieldRef(*rel.b), comments=(rel.evidence(),)))
         kept.append(rel)
     return related, kept

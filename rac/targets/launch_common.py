@@ -6,7 +6,7 @@ from collections.abc import Callable
 
 from rac.pipeline import Compiled
 from rac.targets import EmitOptions
-from rac.targets.templating import render, xmlattr
+from rac.targets.templating import XML_SPECIAL, render, xmlattr
 
 MODEL_SERVER_EXECUTABLE = "diagnosis_model_server.py"
 MODEL_SERVER_NAME = "diagnosis_model_server"
@@ -64,6 +64,8 @@ def _node_tails(compiled: Compiled) -> list[str]:
         return xmlattr(param_text(value))
 
     heads: dict[tuple[str, ...], tuple[str, ...]] = {}  # keys -> '    <param name="K" value='
+    executables: dict[str, str] = {}  # kind -> xmlattr("KIND.py")
+    special = XML_SPECIAL.search
     tails = [""]
     append = tails.append
     for o in compiled.observers:
@@ -75,16 +77,24 @@ def _node_tails(compiled: Compiled) -> list[str]:
                 lead = heads[keys] = tuple(f"    <param name={xmlattr(k)} value=" for k in keys)
             lines = "".join(
                 [
-                    f"{head}{(get(v) or string(v)) if type(v) is str else other(v)}/>\n"
+                    f"{head}{get(v) or string(v)}/>\n"
+                    if type(v) is str
+                    else f'{head}"{v}"/>\n'  # an int: digits and '-', nothing to escape
+                    if type(v) is int
+                    else f"{head}{other(v)}/>\n"
                     for head, v in zip(lead, values, strict=True)
                 ]
             )
         else:
             lines = ""
-        executable = f"{o.kind}.py"
-        append(
-            f"={get(executable) or string(executable)} name={xmlattr(o.name)}>\n{lines}  </node>\n"
-        )
+        executable, name = executables.get(o.kind), o.name
+        if executable is None:
+            executable = executables[o.kind] = xmlattr(f"{o.kind}.py")
+        if type(name) is not str or special(name) is not None:
+            name = xmlattr(name)
+        else:
+            name = f'"{name}"'  # xmlattr's usual case, without the call
+        append(f"={executable} name={name}>\n{lines}  </node>\n")
     return tails
 
 

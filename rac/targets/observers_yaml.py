@@ -59,7 +59,9 @@ def _entries(name: str, observers: tuple[ObserverSpec, ...]) -> str:
         return get(value) or scalar(value, strings)
 
     heads: dict[tuple[str, ...], tuple[str, ...]] = {}  # parameter keys -> "    key: "
-    # Every string written as itself, to check at the end: names (all str) and values.
+    openings: dict[str, str] = {}  # kind -> "- kind: KIND\n  name: "
+    # Every other string written as itself, checked at the end: names and reports (nearly
+    # all distinct, so checked as they are) and parameter values (many repeat).
     names: list[str] = []
     values_seen: list[Any] = []
     extend, remember, extend_values = names.extend, names.append, values_seen.extend
@@ -67,19 +69,28 @@ def _entries(name: str, observers: tuple[ObserverSpec, ...]) -> str:
     append = out.append
     for o in observers:
         params, atoms, kind, label = o.params, o.atoms, o.kind, o.name
-        if not params or not atoms or type(kind) is not str or type(label) is not str:
+        if not params or not atoms or type(label) is not str:
             raise yaml_text.NotSimple  # '{}', '[]' or an odd type: leave them to dump()
+        opening = openings.get(kind)
+        if opening is None:
+            if type(kind) is not str:
+                raise yaml_text.NotSimple
+            opening = openings[kind] = f"- kind: {scalar(kind, strings)}\n  name: "
         keys, values = zip(*params, strict=True)
         lead = heads.get(keys)
         if lead is None:
             if len(set(keys)) != len(keys) or max(map(len, keys)) > 120:
                 raise yaml_text.NotSimple  # merged or complex keys: leave them to dump()
             lead = heads[keys] = tuple(f"    {get(k) or scalar(k, strings)}: " for k in keys)
-        reports = [str(a) for a in atoms]
-        extend_values(values)
-        extend(reports)
-        remember(kind)
+        if len(atoms) == 1:
+            report = str(atoms[0])
+            remember(report)
+        else:
+            reports = [str(a) for a in atoms]
+            extend(reports)
+            report = _NEXT_REPORT.join(reports)
         remember(label)
+        extend_values(values)
         lines = "".join(
             [
                 f"{head}{value}\n"
@@ -88,11 +99,7 @@ def _entries(name: str, observers: tuple[ObserverSpec, ...]) -> str:
                 for head, value in zip(lead, values, strict=True)
             ]
         )
-        append(
-            f"- kind: {kind}\n  name: {label}\n  params:\n{lines}"
-            f"  reports:\n  - {_NEXT_REPORT.join(reports)}\n"
-        )
-    written = set(names)
-    written.update([v for v in set(values_seen) if type(v) is str])
-    yaml_text.check_plain(written)
+        append(f"{opening}{label}\n  params:\n{lines}  reports:\n  - {report}\n")
+    yaml_text.check_plain(names)
+    yaml_text.check_plain([v for v in set(values_seen) if type(v) is str])
     return "".join(out)

@@ -10,13 +10,13 @@ from xml.sax.saxutils import quoteattr
 
 import jinja2
 
-_XML_SPECIAL = re.compile("[&<>\"'\n\r\t]")
+XML_SPECIAL = re.compile("[&<>\"'\n\r\t]")  # what quoteattr would change
 
 
 def xmlattr(value: object) -> str:
     """``quoteattr(str(value))``, without its six replace calls for the usual plain value."""
     text = str(value)
-    if _XML_SPECIAL.search(text) is None:
+    if XML_SPECIAL.search(text) is None:
         return f'"{text}"'
     return quoteattr(text)
 
