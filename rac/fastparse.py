@@ -22,7 +22,7 @@ from __future__ import annotations
 import dataclasses
 import re
 from collections.abc import Callable
-from typing import Any
+from typing import Any, cast
 
 from lark import Token
 
@@ -152,8 +152,7 @@ _TOPIC_FAST = re.compile(
     rf"topic{_S}+({_A_NAME})"
     rf"(?:{_S}*:{_S}*((?>{_plain(_MSG_TYPE.pattern)})))?"
     rf"(?:{_S}*\{{{_S}*(?:({_FIELDS}){_S}*(?:,{_S}*)?)?\}})?"
-    rf"(?:{_S}*@{_S}*({_A_NUMBER}){_S}*Hz{_END}((?:{_S}*(?:{_plain(_OPTION.pattern)}))*))?"
-    + _TAIL
+    rf"(?:{_S}*@{_S}*({_A_NUMBER}){_S}*Hz{_END}((?:{_S}*(?:{_plain(_OPTION.pattern)}))*))?" + _TAIL
 )
 _NODE_LINE = re.compile(
     rf"node{_S}+({_A_NAME})(?:{_S}+drives{_S}+({_NAMES}))?{_S}*\{{{_S}*(#[^\n]*)?\n"
@@ -178,11 +177,13 @@ _ITEM = re.compile(r"[^ \t\f\r,]+")
 
 
 class _Span:
-    """Builds a :class:`Span`: the same slots, set without the frozen dataclass's
-    ``__init__`` (five ``object.__setattr__`` calls, half the cost of reading a name), then
-    the object becomes the ``Span`` it was laid out as."""
+    """Builds a :class:`Span` at a third of the cost of ``Span(...)``, whose frozen
+    dataclass ``__init__`` sets each field through ``object.__setattr__``: a large model
+    holds hundreds of thousands of spans.  It has the same slots (so the same memory
+    layout), sets them plainly, and then becomes the ``Span`` it was laid out as; the object
+    is then in every way one that ``Span(...)`` would have built."""
 
-    __slots__ = ("file", "line", "column", "end_line", "end_column")
+    __slots__ = ("column", "end_column", "end_line", "file", "line")
 
     def __init__(self, file: str, line: int, column: int, end_line: int, end_column: int) -> None:
         self.file = file
@@ -196,7 +197,7 @@ class _Span:
 class _Name:
     """Builds a :class:`Name` as :class:`_Span` builds a ``Span``."""
 
-    __slots__ = ("value", "span")
+    __slots__ = ("span", "value")
 
     def __init__(self, value: str, span: Span) -> None:
         self.value = value
@@ -204,19 +205,52 @@ class _Name:
         self.__class__ = Name  # type: ignore[assignment]
 
 
-def _constructors() -> tuple[Callable[[str, int, int, int, int], Span], Callable[[str, Span], Name]]:
-    """The fast builders if ``Span`` and ``Name`` are still laid out as they expect (the
-    fields, and nothing run on construction but setting them), else the classes themselves."""
+def _constructors() -> tuple[
+    Callable[[str, int, int, int, int], Span], Callable[[str, Span], Name]
+]:
+    """``_Span`` and ``_Name`` while ``Span`` and ``Name`` are what they expect: the same
+    fields in the order of their parameters, the same slots, nothing run on construction but
+    setting the fields; otherwise the classes themselves."""
     for cls, twin in ((Span, _Span), (Name, _Name)):
-        fields = tuple(f.name for f in dataclasses.fields(cls))  # type: ignore[arg-type]
-        if getattr(cls, "__slots__", None) != fields or fields != twin.__slots__:
+        fields = tuple(f.name for f in dataclasses.fields(cls))
+        parameters = twin.__init__.__code__.co_varnames[1 : len(fields) + 1]
+        if (
+            parameters != fields
+            or twin.__init__.__code__.co_argcount != len(fields) + 1
+            or sorted(getattr(cls, "__slots__", ())) != sorted(fields)
+            or sorted(twin.__slots__) != sorted(fields)
+            or hasattr(cls, "__post_init__")
+        ):
             return Span, Name
-        if hasattr(cls, "__post_init__"):
-            return Span, Name
-    return _Span, _Name  # type: ignore[return-value]
+    make_span = cast("Callable[[str, int, int, int, int], Span]", _Span)
+    make_name = cast("Callable[[str, Span], Name]", _Name)
+    try:
+        name = make_name("n", make_span("f", 1, 2, 3, 4))
+    except TypeError:  # the layouts differ after all
+        return Span, Name
+    expected = Name("n", Span("f", 1, 2, 3, 4))
+    if type(name) is not Name or type(name.span) is not Span or repr(name) != repr(expected):
+        return Span, Name
+    return make_span, make_name
 
 
 _span, _name = _constructors()
+
+
+def _first_limits(run: str) -> tuple[float | None, int | None]:
+    """The first cpu and the first mem limit in ``run``, the limits of one statement."""
+    both = _CPU_MEM.fullmatch(run)
+    if both is not None:  # the usual 'cpu N %, mem N UNIT'
+        return float(both[1]), round(float(both[2]) * MEM_UNITS[both[3]])
+    cpu: float | None = None
+    mem: int | None = None
+    for limit in _LIMIT_S.finditer(run):
+        if limit["cpu"] is not None:
+            if cpu is None:
+                cpu = float(limit["cpu"])
+        elif mem is None:
+            mem = round(float(limit["mem"]) * MEM_UNITS[limit["unit"]])
+    return cpu, mem
 
 
 class Bail(Exception):
@@ -402,31 +436,26 @@ class _Reader:
                 break
             first = text[pos]
             line, line_start, ncomments = self.line, self.line_start, len(self.comments)
-            if first == "n":
-                if (m := _NODE_LINE.match(text, pos)) is not None:
-                    nodes.append(self.node_lines(m))
-                    undo = (nodes, self.node, pos, line, line_start, ncomments)
-                    continue
-            elif first == "t":
-                if (m := _TOPIC_FAST.match(text, pos)) is not None:
-                    topics.append(self.topic_fast(m))
-                    undo = (topics, self.topic, pos, line, line_start, ncomments)
-                    continue
-            elif first == "h":
-                if (m := _HARDWARE_LINE.match(text, pos)) is not None:
-                    hardware.append(self.hardware_line(m))
-                    undo = (hardware, self.hardware, pos, line, line_start, ncomments)
-                    continue
-            elif first == "r":
-                if (m := _RELATE_LINE.match(text, pos)) is not None:
-                    related.append(self.relate_line(m))
-                    undo = (related, self.relate, pos, line, line_start, ncomments)
-                    continue
-            elif first == "i":
-                if (m := _INTERVAL_LINE.match(text, pos)) is not None:
-                    intervals.append(self.interval_line(m))
-                    undo = (intervals, self.interval, pos, line, line_start, ncomments)
-                    continue
+            if first == "n" and (m := _NODE_LINE.match(text, pos)) is not None:
+                nodes.append(self.node_lines(m))
+                undo = (nodes, self.node, pos, line, line_start, ncomments)
+                continue
+            if first == "t" and (m := _TOPIC_FAST.match(text, pos)) is not None:
+                topics.append(self.topic_fast(m))
+                undo = (topics, self.topic, pos, line, line_start, ncomments)
+                continue
+            if first == "h" and (m := _HARDWARE_LINE.match(text, pos)) is not None:
+                hardware.append(self.hardware_line(m))
+                undo = (hardware, self.hardware, pos, line, line_start, ncomments)
+                continue
+            if first == "r" and (m := _RELATE_LINE.match(text, pos)) is not None:
+                related.append(self.relate_line(m))
+                undo = (related, self.relate, pos, line, line_start, ncomments)
+                continue
+            if first == "i" and (m := _INTERVAL_LINE.match(text, pos)) is not None:
+                intervals.append(self.interval_line(m))
+                undo = (intervals, self.interval, pos, line, line_start, ncomments)
+                continue
             word = self.peek_word()
             if word == "hardware":
                 hardware.append(self.hardware())
@@ -559,7 +588,7 @@ class _Reader:
         first_line, line_start, ncomments = self.line, self.line_start, len(self.comments)
         line, base = first_line, line_start - 1
         name, drive_run, comment = m.groups()
-        column = m.start(1) - base
+        name_column = m.start(1) - base
         drives: list[Name] = []
         if drive_run is not None:
             self._names(m.start(2), drive_run, line, base, drives)
@@ -577,35 +606,24 @@ class _Reader:
             base = pos - 1
             _, kind, names, inputs, limit_run, semi, comment = b.groups()
             if kind is not None:
+                if inputs is not None and (kind != "publishes" or "," in names):
+                    break  # not a statement: let the token-by-token reader bail
                 if kind == "subscribes":
                     self._names(b.start(3), names, line, base, subscribes)
                 elif kind == "reports":
                     self._names(b.start(3), names, line, base, diagnostics)
-                else:
+                elif inputs is None:
                     topics: list[Name] = []
                     self._names(b.start(3), names, line, base, topics)
-                    if inputs is None:
-                        publishes.extend([Publication(topic) for topic in topics])
-                    elif len(topics) == 1:
-                        affected_by: list[Name] = []
-                        self._names(b.start(4), inputs, line, base, affected_by)
-                        publishes.append(Publication(topics[0], tuple(affected_by)))
-                    else:
-                        break  # a syntax error: let the token-by-token reader bail
-                if inputs is not None and kind != "publishes":
-                    break
+                    publishes.extend([Publication(topic) for topic in topics])
+                else:
+                    column = b.start(3) - base
+                    topic = _name(names, _span(path, line, column, line, column + len(names)))
+                    affected_by: list[Name] = []
+                    self._names(b.start(4), inputs, line, base, affected_by)
+                    publishes.append(Publication(topic, tuple(affected_by)))
             elif limit_run is not None:
-                cpu: float | None = None
-                mem: int | None = None
-                if (both := _CPU_MEM.fullmatch(limit_run)) is not None:  # the usual layout
-                    cpu = float(both[1])
-                    mem = round(float(both[2]) * MEM_UNITS[both[3]])
-                for limit in () if both is not None else _LIMIT_S.finditer(limit_run):
-                    if limit["cpu"] is not None:
-                        if cpu is None:
-                            cpu = float(limit["cpu"])
-                    elif mem is None:
-                        mem = round(float(limit["mem"]) * MEM_UNITS[limit["unit"]])
+                cpu, mem = _first_limits(limit_run)
                 end = b.end(6) if semi is not None else b.end(5)
                 limits = Limits(
                     cpu=cpu if cpu is not None else limits.cpu,
@@ -628,7 +646,10 @@ class _Reader:
                 self.line_start = pos
                 self._next_line(c.end())
                 return Node(
-                    _name(name, _span(path, first_line, column, first_line, column + len(name))),
+                    _name(
+                        name,
+                        _span(path, first_line, name_column, first_line, name_column + len(name)),
+                    ),
                     drives=tuple(drives),
                     subscribes=tuple(subscribes),
                     publishes=tuple(publishes),

@@ -33,7 +33,7 @@ def observer_nodes(compiled: Compiled, options: EmitOptions) -> Callable[[str], 
     launch files' time, so the nodes are written here, once per compilation for both
     launch files (``Compiled.memo``), and the templates place them.
     """
-    key = ("launch_observer_nodes", options)
+    key = "launch_observer_tails"  # the same for any options
     tails = compiled.memo.get(key)
     if tails is None:
         tails = compiled.memo[key] = _node_tails(compiled)
@@ -90,10 +90,9 @@ def _node_tails(compiled: Compiled) -> list[str]:
         executable, name = executables.get(o.kind), o.name
         if executable is None:
             executable = executables[o.kind] = xmlattr(f"{o.kind}.py")
-        if type(name) is not str or special(name) is not None:
-            name = xmlattr(name)
-        else:
-            name = f'"{name}"'  # xmlattr's usual case, without the call
+        # xmlattr(name), its usual case (nothing to escape) without the call
+        plain = type(name) is str and special(name) is None
+        name = f'"{name}"' if plain else xmlattr(name)
         append(f"={executable} name={name}>\n{lines}  </node>\n")
     return tails
 

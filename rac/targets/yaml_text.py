@@ -106,7 +106,8 @@ def check_plain(strings: Collection[str]) -> None:
     """NotSimple unless :func:`scalar` writes each of ``strings`` (all str) as itself.
 
     :func:`scalar` writes a plain string as itself, so an emitter may write strings first
-    and have them checked here all at once, each distinct one a single regex call.
+    and have them checked here all at once: one regex call per item (pass each string once
+    if many repeat).
     """
     if not all(map(_SAFE.fullmatch, strings)):
         raise _NotSimple
