@@ -6,7 +6,8 @@ error message, but its Python lexer costs about 20 µs a token, several seconds 
 the same terminal regular expressions, state by state, as a recursive descent over the
 text, and builds exactly the IR the Lark path builds: the same values, the same spans
 (a declaration's span runs from its keyword to its last token, ``;`` included), the same
-comments.
+comments.  Declarations in the usual layout (one line each; a node's statements one a line)
+are read a whole line per regular-expression match, everything else token by token.
 
 It is deliberately strict: whenever the input strays from what it can read with certainty
 (a syntax error, a keyword glued to a following word, a list or a declaration that goes on

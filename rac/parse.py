@@ -76,9 +76,7 @@ def _keyword(terminal: str) -> str:
 def _literals() -> dict[str, str]:
     """Terminal name -> its literal text, for the grammar's string terminals."""
     return {
-        t.name: t.pattern.value
-        for t in _commented_parser().terminals
-        if t.pattern.type == "str"
+        t.name: t.pattern.value for t in _commented_parser().terminals if t.pattern.type == "str"
     }
 
 
