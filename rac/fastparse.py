@@ -20,10 +20,9 @@ against Lark on the example models, odd layouts, mutants and random models.
 
 from __future__ import annotations
 
-import dataclasses
 import re
 from collections.abc import Callable
-from typing import Any, cast
+from typing import Any
 
 from lark import Token
 
@@ -177,65 +176,8 @@ _NO_LIMITS = Limits()
 _ITEM = re.compile(r"[^ \t\f\r,]+")
 
 
-class _Span:
-    """Builds a :class:`Span` at a third of the cost of ``Span(...)``, whose frozen
-    dataclass ``__init__`` sets each field through ``object.__setattr__``: a large model
-    holds hundreds of thousands of spans.  It has the same slots (so the same memory
-    layout), sets them plainly, and then becomes the ``Span`` it was laid out as; the object
-    is then in every way one that ``Span(...)`` would have built."""
-
-    __slots__ = ("column", "end_column", "end_line", "file", "line")
-
-    def __init__(self, file: str, line: int, column: int, end_line: int, end_column: int) -> None:
-        self.file = file
-        self.line = line
-        self.column = column
-        self.end_line = end_line
-        self.end_column = end_column
-        self.__class__ = Span  # type: ignore[assignment]
-
-
-class _Name:
-    """Builds a :class:`Name` as :class:`_Span` builds a ``Span``."""
-
-    __slots__ = ("span", "value")
-
-    def __init__(self, value: str, span: Span) -> None:
-        self.value = value
-        self.span = span
-        self.__class__ = Name  # type: ignore[assignment]
-
-
-def _constructors() -> tuple[
-    Callable[[str, int, int, int, int], Span], Callable[[str, Span], Name]
-]:
-    """``_Span`` and ``_Name`` while ``Span`` and ``Name`` are what they expect: the same
-    fields in the order of their parameters, the same slots, nothing run on construction but
-    setting the fields; otherwise the classes themselves."""
-    for cls, twin in ((Span, _Span), (Name, _Name)):
-        fields = tuple(f.name for f in dataclasses.fields(cls))
-        parameters = twin.__init__.__code__.co_varnames[1 : len(fields) + 1]
-        if (
-            parameters != fields
-            or twin.__init__.__code__.co_argcount != len(fields) + 1
-            or sorted(getattr(cls, "__slots__", ())) != sorted(fields)
-            or sorted(twin.__slots__) != sorted(fields)
-            or hasattr(cls, "__post_init__")
-        ):
-            return Span, Name
-    make_span = cast("Callable[[str, int, int, int, int], Span]", _Span)
-    make_name = cast("Callable[[str, Span], Name]", _Name)
-    try:
-        name = make_name("n", make_span("f", 1, 2, 3, 4))
-    except TypeError:  # the layouts differ after all
-        return Span, Name
-    expected = Name("n", Span("f", 1, 2, 3, 4))
-    if type(name) is not Name or type(name.span) is not Span or repr(name) != repr(expected):
-        return Span, Name
-    return make_span, make_name
-
-
-_span, _name = _constructors()
+# The one-line shortcuts build spans and names with the IR's own constructors.
+_span, _name = Span, Name
 
 
 def _first_limits(run: str) -> tuple[float | None, int | None]:

@@ -5,6 +5,7 @@ Parse failures become named diagnostics that say, in words, what was expected.
 
 from __future__ import annotations
 
+import bisect
 import functools
 from dataclasses import replace
 from importlib import resources
@@ -342,6 +343,8 @@ def _attach_comments(model: Model, comments: list[Token]) -> Model:
         key=lambda d: (d.span.line, d.span.column),
     )
     header_line = model.name.span.line if model.name.span else 1
+    # Declarations do not overlap, so their last lines ascend with their first ones.
+    end_lines = [d.span.end_line for d in decls]
     pending = sorted(comments, key=lambda t: (t.line or 0, t.column or 0))
     leading: dict[int, list[str]] = {}
     inner: dict[int, list[str]] = {}
@@ -350,26 +353,26 @@ def _attach_comments(model: Model, comments: list[Token]) -> Model:
     for token in pending:
         line = token.line or 0
         body = str(token)[1:].rstrip()
-        owner = next((i for i, d in enumerate(decls) if line <= d.span.end_line), None)
+        owner = bisect.bisect_left(end_lines, line)
         if line < header_line:
             head.append(body)
-        elif owner is None:
+        elif owner == len(decls):
             tail.append(body)
         elif isinstance(decls[owner], Node) and line > decls[owner].span.line:
             inner.setdefault(owner, []).append(body)
         else:
             leading.setdefault(owner, []).append(body)
     new = {
-        id(d): replace(
-            d,
+        id(decls[i]): replace(
+            decls[i],
             comments=tuple(leading.get(i, ())),
-            **({"inner_comments": tuple(inner.get(i, ()))} if isinstance(d, Node) else {}),
+            **({"inner_comments": tuple(inner.get(i, ()))} if isinstance(decls[i], Node) else {}),
         )
-        for i, d in enumerate(decls)
+        for i in sorted(leading.keys() | inner.keys())
     }
 
     def swap(items: tuple[Any, ...]) -> tuple[Any, ...]:
-        return tuple(new[id(x)] for x in items)
+        return tuple(new.get(id(x), x) for x in items)
 
     return replace(
         model,

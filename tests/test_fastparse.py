@@ -130,14 +130,3 @@ def test_declarations_continued_on_the_next_line() -> None:
     text += "node m drives a {\n  publishes /t\n}\n  # c\n ;\nrelate /t.x ~ /u.y\n# c\n;\n"
     text += "interval /t.x ~ /u.y within 2\n;\n"
     assert _same_or_bail(text)
-
-
-def test_spans_and_names_built_without_init_are_the_real_thing() -> None:
-    from rac.errors import Span
-    from rac.fastparse import _name, _span
-    from rac.ir import Name
-
-    built, expected = _name("/a", _span("f.ram", 1, 2, 3, 4)), Name("/a", Span("f.ram", 1, 2, 3, 4))
-    assert type(built) is Name and type(built.span) is Span
-    assert repr(built) == repr(expected) and built == expected and hash(built) == hash(expected)
-    assert built.span == expected.span and hash(built.span) == hash(expected.span)
