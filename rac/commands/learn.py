@@ -137,9 +137,10 @@ def _check_options(args: argparse.Namespace) -> None:
 def run(args: argparse.Namespace) -> int:
     # NumPy and rosbags load here, not at start-up: every racc command pays for imports
     # made at module level.
-    from rac.learn import LearnOptions, learn, observer_counts, report
     from rac.learn.fields import FieldSelector
     from rac.learn.graph import parse_graph
+    from rac.learn.learner import learn, observer_counts, report
+    from rac.learn.options import LearnOptions
     from rac.learn.properties import parse_properties, property_stats
     from rac.learn.recording import read_recording
 

@@ -92,8 +92,7 @@ def _command_line_problem(args: argparse.Namespace, out: Path, ros_version: int)
 
 def run(args: argparse.Namespace) -> int:
     # rosbags loads here, not at every racc start-up.
-    from rac.synth import SynthOptions, plan_recording, write_recording
-    from rac.synth.recording import fault_summary
+    from rac.synth.recording import SynthOptions, fault_summary, plan_recording, write_recording
 
     out = Path(args.output)
     ros_version = 1 if args.ros1 or (not args.ros2 and out.name.endswith(".bag")) else 2

@@ -1,13 +1,10 @@
 """``racc learn``: learn a model from recorded fault-free runs (chapter 9).
 
-The names below load on first use (PEP 562): the command line imports the light
-``rac.learn.options`` at start-up without paying for NumPy and rosbags.
+The names below load on first use (see :mod:`rac.lazy`): the command line imports the
+light ``rac.learn.options`` at start-up without paying for NumPy and rosbags.
 """
 
-from __future__ import annotations
-
-import importlib
-from typing import Any
+from rac.lazy import lazy_exports
 
 _EXPORTS = {
     "LearnResult": "rac.learn.learner",
@@ -18,9 +15,4 @@ _EXPORTS = {
 }
 
 __all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str) -> Any:
-    if name not in _EXPORTS:
-        raise AttributeError(f"module 'rac.learn' has no attribute {name!r}")
-    return getattr(importlib.import_module(_EXPORTS[name]), name)
+__getattr__ = lazy_exports(__name__, _EXPORTS)

@@ -1,13 +1,10 @@
 """``racc synth``: synthetic recordings of the robot a model describes (for demos and tests).
 
-The names below load on first use (PEP 562), so that the command line's start-up does
-not import rosbags.
+The names below load on first use (see :mod:`rac.lazy`), so that the command line's
+start-up does not import rosbags.
 """
 
-from __future__ import annotations
-
-import importlib
-from typing import Any
+from rac.lazy import lazy_exports
 
 _EXPORTS = {
     "Plan": "rac.synth.recording",
@@ -17,9 +14,4 @@ _EXPORTS = {
 }
 
 __all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str) -> Any:
-    if name not in _EXPORTS:
-        raise AttributeError(f"module 'rac.synth' has no attribute {name!r}")
-    return getattr(importlib.import_module(_EXPORTS[name]), name)
+__getattr__ = lazy_exports(__name__, _EXPORTS)
