@@ -80,9 +80,18 @@ def _node(n: Node) -> list[str]:
     head = f"node {n.name.value}"
     if n.drives:
         head += " drives " + ", ".join(h.value for h in n.drives)
+    notes: dict[str, list[str]] = {}
+    for anchor, text in n.body_comments:
+        notes.setdefault(anchor, []).append(text)
     body = _comments(n.inner_comments, INDENT)
+
+    def statement(line: str, *anchors: str) -> None:
+        for anchor in anchors:
+            body.extend(_comments(notes.pop(anchor, ()), INDENT))
+        body.append(line)
+
     if n.subscribes:
-        body.append(f"{INDENT}subscribes " + ", ".join(t.value for t in n.subscribes))
+        statement(f"{INDENT}subscribes " + ", ".join(t.value for t in n.subscribes), "subscribes")
     # Publications keep their order (the JSON export's order): a run of outputs without
     # inputs shares one line, each output with inputs has its own.
     plain: list[str] = []
@@ -91,21 +100,23 @@ def _node(n: Node) -> list[str]:
             plain.append(p.topic.value)
             continue
         if plain:
-            body.append(f"{INDENT}publishes " + ", ".join(plain))
+            statement(f"{INDENT}publishes " + ", ".join(plain), *(f"pub:{t}" for t in plain))
             plain = []
         inputs = ", ".join(a.value for a in p.affected_by)
-        body.append(f"{INDENT}publishes {p.topic.value} from {inputs}")
+        statement(f"{INDENT}publishes {p.topic.value} from {inputs}", f"pub:{p.topic.value}")
     if plain:
-        body.append(f"{INDENT}publishes " + ", ".join(plain))
+        statement(f"{INDENT}publishes " + ", ".join(plain), *(f"pub:{t}" for t in plain))
     limits = []
     if n.limits.cpu is not None:
         limits.append(f"cpu {format_number(n.limits.cpu)} %")
     if n.limits.mem is not None:
         limits.append(f"mem {format_mem(n.limits.mem)}")
     if limits:
-        body.append(f"{INDENT}limits " + ", ".join(limits))
+        statement(f"{INDENT}limits " + ", ".join(limits), "limits")
     if n.diagnostics:
-        body.append(f"{INDENT}reports " + ", ".join(d.value for d in n.diagnostics))
+        statement(f"{INDENT}reports " + ", ".join(d.value for d in n.diagnostics), "reports")
+    # Comments after the last statement, or above one the model no longer has.
+    body.extend(_comments((t for a, t in n.body_comments if a in notes), INDENT))
     if not body:
         return [head + " {}"]
     return [head + " {", *body, "}"]

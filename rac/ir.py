@@ -78,6 +78,9 @@ class Node:
     diagnostics: tuple[Name, ...] = ()
     comments: tuple[str, ...] = dataclasses.field(default=(), compare=False)
     inner_comments: tuple[str, ...] = dataclasses.field(default=(), compare=False)
+    # Comments inside the body, each with the statement it stands above: "subscribes",
+    # "pub:TOPIC", "limits", "reports", or "end" (after the last statement).
+    body_comments: tuple[tuple[str, str], ...] = dataclasses.field(default=(), compare=False)
     span: Span | None = dataclasses.field(default=None, compare=False)
 
     @property

@@ -347,7 +347,7 @@ def _attach_comments(model: Model, comments: list[Token]) -> Model:
     end_lines = [d.span.end_line for d in decls]
     pending = sorted(comments, key=lambda t: (t.line or 0, t.column or 0))
     leading: dict[int, list[str]] = {}
-    inner: dict[int, list[str]] = {}
+    inner: dict[int, list[tuple[int, str]]] = {}
     head: list[str] = []
     tail: list[str] = []
     for token in pending:
@@ -359,14 +359,14 @@ def _attach_comments(model: Model, comments: list[Token]) -> Model:
         elif owner == len(decls):
             tail.append(body)
         elif isinstance(decls[owner], Node) and line > decls[owner].span.line:
-            inner.setdefault(owner, []).append(body)
+            inner.setdefault(owner, []).append((line, body))
         else:
             leading.setdefault(owner, []).append(body)
     new = {
         id(decls[i]): replace(
             decls[i],
             comments=tuple(leading.get(i, ())),
-            **({"inner_comments": tuple(inner.get(i, ()))} if isinstance(decls[i], Node) else {}),
+            **({"body_comments": _anchor(decls[i], inner[i])} if i in inner else {}),
         )
         for i in sorted(leading.keys() | inner.keys())
     }
@@ -384,3 +384,31 @@ def _attach_comments(model: Model, comments: list[Token]) -> Model:
         comments=tuple(head),
         trailing_comments=tuple(tail),
     )
+
+
+def _statement_lines(node: Node) -> list[tuple[int, int, str]]:
+    """(line, column, anchor) of each statement of a node body, from the spans it left."""
+    found: list[tuple[int, int, str]] = []
+
+    def add(span: Span | None, anchor: str) -> None:
+        if span is not None:
+            found.append((span.line, span.column, anchor))
+
+    if node.subscribes:
+        add(node.subscribes[0].span, "subscribes")
+    for pub in node.publishes:
+        add(pub.topic.span, f"pub:{pub.topic.value}")
+    add(node.limits.span, "limits")
+    if node.diagnostics:
+        add(node.diagnostics[0].span, "reports")
+    return sorted(found)
+
+
+def _anchor(node: Node, comments: list[tuple[int, str]]) -> tuple[tuple[str, str], ...]:
+    """Each body comment with the first statement on or after its line (or "end")."""
+    statements = _statement_lines(node)
+    anchored = []
+    for line, text in comments:
+        anchor = next((a for at, _, a in statements if at >= line), "end")
+        anchored.append((anchor, text))
+    return tuple(anchored)
