@@ -23,6 +23,15 @@ from rac.errors import Diagnostic, RacError
 from rac.repair import NoRepairPlan, robot_name
 
 
+def address_arg(text: str) -> str:
+    """argparse type for HOST:PORT: a malformed address is a command-line error (exit 2)."""
+    try:
+        parse_address(text)
+    except RacError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not HOST:PORT") from None
+    return text
+
+
 def register(sub: Any) -> None:
     parser = add_command(
         sub,
@@ -61,7 +70,13 @@ def register(sub: Any) -> None:
         "  racc board control --control 127.0.0.1:7001 overcurrent hokuyo",
     )
     for p in (status, switch):
-        p.add_argument("--board", required=True, metavar="HOST:PORT", help="the board's address")
+        p.add_argument(
+            "--board",
+            required=True,
+            metavar="HOST:PORT",
+            type=address_arg,
+            help="the board's address",
+        )
         p.add_argument("--model", metavar="MODEL", help="names the channels (.ram or .json)")
         p.add_argument(
             "--timeout", type=float, default=2.0, help="seconds per wait (default: %(default)s)"
@@ -70,7 +85,9 @@ def register(sub: Any) -> None:
     status.add_argument("--json", action="store_true", help="print JSON instead of a table")
     switch.add_argument("device", metavar="DEVICE", help="device name or channel number")
     switch.add_argument("state", choices=("on", "off"), help="the state to switch to")
-    control.add_argument("--control", required=True, metavar="HOST:PORT", help="control port")
+    control.add_argument(
+        "--control", required=True, metavar="HOST:PORT", type=address_arg, help="control port"
+    )
     control.add_argument("line", nargs="+", metavar="LINE", help="the control command")
     control.set_defaults(run=run)
     parser.set_defaults(run=run)
@@ -180,7 +197,9 @@ def add_execute_options(parser: argparse.ArgumentParser) -> None:
 
 
 def add_board_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--board", metavar="HOST:PORT", help="the diagnostic board (or board-sim)")
+    parser.add_argument(
+        "--board", metavar="HOST:PORT", type=address_arg, help="the diagnostic board (or board-sim)"
+    )
     parser.add_argument(
         "--node-commands",
         metavar="KIND=TEMPLATE",
@@ -230,6 +249,7 @@ def add_scenario_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--board-control",
         metavar="HOST:PORT",
+        type=address_arg,
         help="board-sim's control port: trip the device there (else the scenario switches it off)",
     )
 
