@@ -183,8 +183,12 @@ def test_cli_writes_a_ros2_mcap_bag_and_properties_and_refuses_to_overwrite(
 
 
 def test_cli_rejects_a_bad_fault(tmp_path: Path) -> None:
-    args = ["synth", str(TEDUSAR), "-o", str(tmp_path / "x.bag"), "--fault", "oops"]
-    assert main(args) == 1
+    out = str(tmp_path / "x.bag")
+    with pytest.raises(SystemExit) as caught:  # malformed: the command line is wrong
+        main(["synth", str(TEDUSAR), "-o", out, "--fault", "oops"])
+    assert caught.value.code == 2
+    # Well formed, but the model has no such node: the input is wrong.
+    assert main(["synth", str(TEDUSAR), "-o", out, "--fault", "crash@3:no_such_node"]) == 1
     assert not (tmp_path / "x.bag").exists()
 
 

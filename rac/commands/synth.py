@@ -14,11 +14,21 @@ from typing import Any
 
 from rac.commands.common import add_command, load_checked
 from rac.errors import Diagnostic, RacError
-from rac.synth.faults import FAULT_KINDS, parse_fault
+from rac.synth.faults import FAULT_KINDS, FAULT_SPEC, parse_fault
 
 MAX_DURATION_S = 86_400
 MAX_SEED = 99_999
 KINDS = ", ".join(f"{k} (TARGET a {v})" for k, v in FAULT_KINDS.items())
+
+
+def fault_arg(text: str) -> str:
+    """argparse type: the shape KIND@T[+D]:TARGET with a known KIND is the command line's
+    business (exit 2); whether TARGET is in the model is checked against the model later."""
+    match = FAULT_SPEC.fullmatch(text.strip())
+    if match is None or match["kind"] not in FAULT_KINDS:
+        kinds = ", ".join(FAULT_KINDS)
+        raise argparse.ArgumentTypeError(f"'{text}' is not KIND@T[+D]:TARGET with KIND in {kinds}")
+    return text
 
 
 def register(sub: Any) -> None:
@@ -54,7 +64,12 @@ def register(sub: Any) -> None:
     )
     parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     parser.add_argument(
-        "--fault", metavar="KIND@T:TARGET", action="append", default=[], help="inject a fault"
+        "--fault",
+        metavar="KIND@T:TARGET",
+        action="append",
+        default=[],
+        type=fault_arg,
+        help="inject a fault",
     )
     parser.add_argument("--force", action="store_true", help="replace RUN if it exists")
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")

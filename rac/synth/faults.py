@@ -17,7 +17,7 @@ FAULT_KINDS = {
 }
 FREQ_FACTOR = 5.0
 ODOMETRY = "nav_msgs/Odometry"
-_SPEC = re.compile(r"(?P<kind>[a-z]+)@(?P<t>[0-9.]+)(\+(?P<d>[0-9.]+))?:(?P<target>\S+)")
+FAULT_SPEC = re.compile(r"(?P<kind>[a-z]+)@(?P<t>[0-9.]+)(\+(?P<d>[0-9.]+))?:(?P<target>\S+)")
 
 
 @dataclass(frozen=True, slots=True)
@@ -41,7 +41,7 @@ def _bad(spec: str, why: str) -> RacError:
 
 
 def parse_fault(spec: str, model: Model) -> Fault:
-    match = _SPEC.fullmatch(spec.strip())
+    match = FAULT_SPEC.fullmatch(spec.strip())
     if match is None:
         raise _bad(spec, "not of the form KIND@T[+D]:TARGET")
     kind, target = match["kind"], match["target"]
