@@ -141,9 +141,12 @@ def models(
             if frozenset((a, b)) not in seen:
                 seen.add(frozenset((a, b)))
                 related.append(Related(FieldRef.parse(a), FieldRef.parse(b)))
+        bounded: set[frozenset[str]] = set()
         for a, b in draw(st.lists(pair, max_size=2)):
             diff = draw(st.floats(min_value=0.0, max_value=100.0))
-            intervals.append(Interval(FieldRef.parse(a), FieldRef.parse(b), diff))
+            if frozenset((a, b)) not in bounded:  # one bound per pair (RAC030)
+                bounded.add(frozenset((a, b)))
+                intervals.append(Interval(FieldRef.parse(a), FieldRef.parse(b), diff))
 
     return Model(
         name=Name(f"robot_{draw(_SUFFIX)}".rstrip("_")),

@@ -116,6 +116,14 @@ def check_duplicate_statements(model: Model) -> Iterator[Diagnostic]:
         if key in pairs:
             yield _error("RAC030", f"fields {rel.a.text} and {rel.b.text} related twice", rel.span)
         pairs.add(key)
+    # Two intervals on one pair would be two observers reporting the same equal(...) atom.
+    bounded: set[frozenset[str]] = set()
+    for iv in model.intervals:
+        key = frozenset((iv.a.text, iv.b.text))
+        if key in bounded:
+            msg = f"fields {iv.a.text} and {iv.b.text} have two interval bounds"
+            yield _error("RAC030", msg, iv.span, "keep one 'interval … within' line per pair")
+        bounded.add(key)
 
 
 def check_affected_by(model: Model) -> Iterator[Diagnostic]:
