@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from rac.ir import Hardware, Interval, Model, Node, Related, Topic
+from rac.ir import Hardware, Interval, Limits, Model, Node, Related, Topic
 
 INDENT = "  "
 _MEM_UNITS = (("GB", 1000**3), ("MB", 1000**2), ("kB", 1000))
@@ -26,6 +26,16 @@ def format_mem(value: int) -> str:
         if value % size == 0:
             return f"{value // size} {unit}"
     return f"{value} B"
+
+
+def format_limits(limits: Limits) -> str:
+    """``cpu 15 %, mem 64 MB`` (empty when the node declares none)."""
+    parts = []
+    if limits.cpu is not None:
+        parts.append(f"cpu {format_number(limits.cpu)} %")
+    if limits.mem is not None:
+        parts.append(f"mem {format_mem(limits.mem)}")
+    return ", ".join(parts)
 
 
 def _comments(comments: Iterable[str], indent: str = "") -> list[str]:
@@ -106,13 +116,9 @@ def _node(n: Node) -> list[str]:
         statement(f"{INDENT}publishes {p.topic.value} from {inputs}", f"pub:{p.topic.value}")
     if plain:
         statement(f"{INDENT}publishes " + ", ".join(plain), *(f"pub:{t}" for t in plain))
-    limits = []
-    if n.limits.cpu is not None:
-        limits.append(f"cpu {format_number(n.limits.cpu)} %")
-    if n.limits.mem is not None:
-        limits.append(f"mem {format_mem(n.limits.mem)}")
+    limits = format_limits(n.limits)
     if limits:
-        statement(f"{INDENT}limits " + ", ".join(limits), "limits")
+        statement(f"{INDENT}limits {limits}", "limits")
     if n.diagnostics:
         statement(f"{INDENT}reports " + ", ".join(d.value for d in n.diagnostics), "reports")
     # Comments after the last statement, or above one the model no longer has.

@@ -16,7 +16,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from xml.sax.saxutils import escape
 
-from rac.fmt import format_mem, format_number
+from rac.fmt import format_limits, format_number
 from rac.ir import Interval, Model, Node, Related, Topic
 from rac.pipeline import Compiled
 from rac.targets import EmitOptions
@@ -104,13 +104,9 @@ def _node_tooltip(node: Node, kind: str) -> str:
     lines = [f"{node.name.value}: {_CLASS_NAMES[kind]}"]
     if node.drives:
         lines.append("drives " + ", ".join(h.value for h in node.drives))
-    limits = []
-    if node.limits.cpu is not None:
-        limits.append(f"cpu {format_number(node.limits.cpu)} %")
-    if node.limits.mem is not None:
-        limits.append(f"mem {format_mem(node.limits.mem)}")
+    limits = format_limits(node.limits)
     if limits:
-        lines.append("limits " + ", ".join(limits))
+        lines.append(f"limits {limits}")
     if node.diagnostics:
         lines.append("reports " + ", ".join(d.value for d in node.diagnostics))
     return quote("\n".join(lines))

@@ -143,16 +143,6 @@ def _plain(value: str) -> str:
     return value
 
 
-def _plain_slow(value: str) -> str:
-    """:func:`_plain` spelled out, resolver by resolver (the reference ``_SAFE`` must match)."""
-    if _PLAIN.fullmatch(value) is None or value.endswith(":") or ": " in value:
-        raise _NotSimple
-    for regexp in _IMPLICIT.get(value[0], _WILDCARD):
-        if regexp.match(value):
-            raise _NotSimple
-    return value
-
-
 def _number(value: Any) -> str:
     """SafeRepresenter's text for an int, float or bool (plain in the output)."""
     kind = type(value)
