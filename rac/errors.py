@@ -115,6 +115,9 @@ CODES: dict[str, str] = {
     "RAC040": "unknown atom in an observation",
     "RAC041": "malformed literal",
     "RAC042": "unknown component",
+    # Observers (chapter 5).
+    "RAC050": "invalid observer specification",
+    "RAC051": "invalid observer parameter value",
     # Repair (chapter 7, issue 4): the repair commands exit 3 on RAC070-RAC075, RAC077, RAC078.
     "RAC070": "no diagnosis explains the observations",
     "RAC071": "a component to repair has no repair action",

@@ -1,0 +1,94 @@
+"""ObserverBank: every observer of a model, with each event routed to those that read it."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import TypeVar
+
+from rac.observe.base import Observer, plain_node
+from rac.observe.build import build_all
+from rac.observe.events import (
+    ChannelState,
+    DeviceStatus,
+    Event,
+    Message,
+    NodeSample,
+    PropertySample,
+    Verdict,
+)
+from rac.passes.observers import ObserverSpec
+
+K = TypeVar("K")
+
+
+class ObserverBank:
+    """Routes by topic, node, (node, property), device and channel.
+
+    Verdicts of one call come by observer order (the specs' order), then by atom; one
+    observer's verdicts on one atom keep their time order.
+    """
+
+    def __init__(self, specs: Iterable[ObserverSpec]) -> None:
+        self.observers: tuple[Observer, ...] = build_all(specs)
+        self._topics: dict[str, list[int]] = {}
+        self._nodes: dict[str, list[int]] = {}
+        self._properties: dict[tuple[str, str], list[int]] = {}
+        self._devices: list[int] = []  # a status names its device in several ways: all see it
+        self._channels: dict[int, list[int]] = {}
+        fields: dict[str, set[str]] = {}
+        for i, obs in enumerate(self.observers):
+            needs = obs.needs
+            for topic, wanted in needs.topics:
+                _add(self._topics, topic, i)
+                fields.setdefault(topic, set()).update(wanted)
+            for node in needs.nodes:
+                _add(self._nodes, node, i)
+            for prop in needs.properties:
+                _add(self._properties, prop, i)
+            if needs.devices:
+                self._devices.append(i)
+            for channel in needs.channels:
+                _add(self._channels, channel, i)
+        self._fields = {t: frozenset(f) for t, f in sorted(fields.items())}
+        self.nodes = frozenset(self._nodes)
+        self.properties = frozenset(self._properties)
+        self.devices = frozenset(d for o in self.observers for d in o.needs.devices)
+        self.needs_board = bool(self._channels)
+
+    def topic_fields(self) -> dict[str, frozenset[str]]:
+        """Topic -> the fields some observer reads (empty: only the occurrence counts)."""
+        return dict(self._fields)
+
+    def feed(self, event: Event) -> list[Verdict]:
+        if isinstance(event, Message):
+            targets = self._topics.get(event.topic, [])
+        elif isinstance(event, NodeSample):
+            targets = self._nodes.get(plain_node(event.node), [])
+        elif isinstance(event, PropertySample):
+            targets = self._properties.get((plain_node(event.node), event.prop), [])
+        elif isinstance(event, DeviceStatus):
+            targets = self._devices
+        elif isinstance(event, ChannelState):
+            targets = self._channels.get(event.channel, [])
+        else:
+            targets = []
+        out: list[Verdict] = []
+        for i in targets:
+            out.extend(_ordered(self.observers[i].feed(event)))
+        return out
+
+    def advance(self, t: float) -> list[Verdict]:
+        out: list[Verdict] = []
+        for obs in self.observers:
+            out.extend(_ordered(obs.advance(t)))
+        return out
+
+
+def _add(index: dict[K, list[int]], key: K, i: int) -> None:
+    slots = index.setdefault(key, [])
+    if not slots or slots[-1] != i:
+        slots.append(i)
+
+
+def _ordered(verdicts: list[Verdict]) -> list[Verdict]:
+    return sorted(verdicts, key=lambda v: v.atom) if len(verdicts) > 1 else verdicts

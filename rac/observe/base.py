@@ -1,0 +1,87 @@
+"""What every observer shares: the θ rule, reporting on change, and its inputs.
+
+**The θ rule** (Algorithms 1, 2, 3, 5, 7 and 8, lines "mismatch"): one counter per observer,
+decremented on a satisfied check while above zero, incremented on a violated one; the
+verdict is negative while the counter exceeds θ.  The text calls it the number of
+*consecutive* violations but never bounds it, so a node that was down for ten minutes would
+need ten minutes of good samples before it read running again.  We bound it at 2θ + 1: a
+fault still needs θ + 1 net violations to show, and a recovery needs θ + 1 net good checks to
+clear, whatever the fault's length.  Any sequence that keeps the counter at or below 2θ + 1
+gives the text's verdicts exactly.
+
+**Reporting**: an observer returns a verdict only when it changes; the first one counts as a
+change, and nothing is reported before the first check.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+from rac.logic import Atom
+from rac.observe.events import Event, Verdict
+from rac.passes.observers import ObserverSpec
+
+
+@dataclass(frozen=True, slots=True)
+class Needs:
+    """The inputs an observer reads, so that a bank can route events to it."""
+
+    topics: tuple[tuple[str, tuple[str, ...]], ...] = ()  # (topic, fields it reads)
+    nodes: tuple[str, ...] = ()  # liveness samples (NObs)
+    properties: tuple[tuple[str, str], ...] = ()  # (node, cpu|mem) samples (PObs)
+    devices: tuple[str, ...] = ()  # /diagnostics devices (DObs)
+    channels: tuple[int, ...] = ()  # board channels (HObs)
+
+
+class Observer(Protocol):
+    spec: ObserverSpec
+    needs: Needs
+
+    def feed(self, event: Event) -> list[Verdict]:
+        """An input routed to this observer; the verdicts that changed."""
+        ...
+
+    def advance(self, t: float) -> list[Verdict]:
+        """Time ``t`` has come with no input for this observer; the verdicts that changed."""
+        ...
+
+
+class Mismatch:
+    """The θ rule's counter (see the module docstring)."""
+
+    __slots__ = ("cap", "count", "theta")
+
+    def __init__(self, theta: int) -> None:
+        self.theta = theta
+        self.cap = 2 * theta + 1
+        self.count = 0
+
+    def check(self, satisfied: bool) -> bool:
+        """Count one check; True while the verdict is positive."""
+        if satisfied:
+            if self.count > 0:
+                self.count -= 1
+        elif self.count < self.cap:
+            self.count += 1
+        return self.count <= self.theta
+
+
+class Latch:
+    """Remembers the last verdict of one atom and reports only changes."""
+
+    __slots__ = ("atom", "positive")
+
+    def __init__(self, atom: Atom) -> None:
+        self.atom = atom
+        self.positive: bool | None = None
+
+    def report(self, t: float, positive: bool, out: list[Verdict]) -> None:
+        if positive is not self.positive:
+            self.positive = positive
+            out.append(Verdict(t, self.atom, positive))
+
+
+def plain_node(name: str) -> str:
+    """A node name as the model writes it: no leading '/'."""
+    return name.strip().lstrip("/")

@@ -1,0 +1,73 @@
+"""BiQObs, the binary qualitative observer (Algorithm 5): matched(t1, f1, t2, f2).
+
+Parameters: ``topic1``, ``field1``, ``topic2``, ``field2``, ``mismatch_th`` θ (default 5);
+``integral1``/``integral2`` (default false: that side is I(field), the running sum);
+``ws`` ω (default 1.0 s), the regression window of both sides; ``slope1``/``slope2``
+(optional: β_p = slope, β_n = −slope for that side, else estimated online, see
+:mod:`rac.observe.qobs`).
+
+Each side is a :class:`~rac.observe.qobs.QObs` over its field.  The text's loop (lines 2-17)
+has no cadence; we check every ω/2 on a fixed grid that starts at the first time the
+observer sees (a ``feed`` or an ``advance``), comparing the latest trend of each side (line
+5) under the θ rule.  Grid instants up to an event's time are checked before the event is
+applied.  No check is made until both sides have a trend, so nothing is reported before.
+The text gives each side its own window (ω₁, ω₂); the model gives one, used by both.
+"""
+
+from __future__ import annotations
+
+import math
+
+from rac.observe.base import Latch, Mismatch
+from rac.observe.events import Event, Message, Verdict
+from rac.observe.iobs import field_value, pair_needs
+from rac.observe.params import Params
+from rac.observe.qobs import QObs
+from rac.passes.observers import DEFAULT_MISMATCH_THRESHOLD, ObserverSpec
+
+DEFAULT_WS = 1.0
+
+
+class BiQObs:
+    def __init__(self, spec: ObserverSpec) -> None:
+        p = Params(spec)
+        self.spec = spec
+        self.topic1, self.field1 = p.text("topic1"), p.text("field1")
+        self.topic2, self.field2 = p.text("topic2"), p.text("field2")
+        self.ws = p.positive("ws", DEFAULT_WS)
+        slope1 = None if p.optional_number("slope1") is None else p.positive("slope1")
+        slope2 = None if p.optional_number("slope2") is None else p.positive("slope2")
+        self.side1 = QObs(self.ws, p.flag("integral1"), slope1)
+        self.side2 = QObs(self.ws, p.flag("integral2"), slope2)
+        self.needs = pair_needs(self.topic1, self.field1, self.topic2, self.field2)
+        self._step = self.ws / 2
+        self._next = math.nan  # the next grid instant
+        self._mismatch = Mismatch(p.count("mismatch_th", DEFAULT_MISMATCH_THRESHOLD))
+        self._latch = Latch(p.atom())
+
+    def feed(self, event: Event) -> list[Verdict]:
+        if not isinstance(event, Message):
+            return []
+        out = self.advance(event.t)
+        if event.topic == self.topic1 and (v := field_value(event, self.field1)) is not None:
+            self.side1.push(event.t, v)
+        if event.topic == self.topic2 and (v := field_value(event, self.field2)) is not None:
+            self.side2.push(event.t, v)
+        return out
+
+    def advance(self, t: float) -> list[Verdict]:
+        out: list[Verdict] = []
+        if math.isnan(self._next):
+            self._next = t + self._step
+        checks = 0
+        while self._next <= t:
+            a, b = self.side1.latest, self.side2.latest
+            # Without both trends, or once the counter can no longer move (the trends stay
+            # as they are until the next event), the remaining instants change nothing.
+            if a is None or b is None or checks > self._mismatch.cap:
+                self._next += (math.floor((t - self._next) / self._step) + 1) * self._step
+                break
+            self._latch.report(self._next, self._mismatch.check(a == b), out)
+            checks += 1
+            self._next += self._step
+        return out

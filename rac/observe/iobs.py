@@ -1,0 +1,65 @@
+"""IObs, the interval observer (Algorithm 8): equal(t1, f1, t2, f2).
+
+Parameters: ``topic1``, ``field1``, ``topic2``, ``field2``, ``max_diff`` Δ,
+``mismatch_th`` θ (default 5).
+
+The text reads both values in a loop (lines 3-4) without saying when.  We check at every
+message of either topic that carries its field, once both values are known, against the
+latest value of the other side: |v1 − v2| ≤ Δ.  A message that carries both fields (one
+topic) is one check.  Missing or non-finite values are skipped.
+"""
+
+from __future__ import annotations
+
+import math
+
+from rac.observe.base import Latch, Mismatch, Needs
+from rac.observe.events import Event, Message, Verdict
+from rac.observe.params import Params
+from rac.passes.observers import DEFAULT_MISMATCH_THRESHOLD, ObserverSpec
+
+
+def field_value(message: Message, field: str) -> float | None:
+    """The field's value, or None when the message does not carry a usable one."""
+    value = message.values.get(field)
+    if value is None:
+        return None
+    value = float(value)
+    return value if math.isfinite(value) else None
+
+
+def pair_needs(t1: str, f1: str, t2: str, f2: str) -> Needs:
+    if t1 == t2:
+        return Needs(topics=((t1, tuple(sorted({f1, f2}))),))
+    return Needs(topics=((t1, (f1,)), (t2, (f2,))))
+
+
+class IObs:
+    def __init__(self, spec: ObserverSpec) -> None:
+        p = Params(spec)
+        self.spec = spec
+        self.topic1, self.field1 = p.text("topic1"), p.text("field1")
+        self.topic2, self.field2 = p.text("topic2"), p.text("field2")
+        self.max_diff = p.number("max_diff")
+        self.needs = pair_needs(self.topic1, self.field1, self.topic2, self.field2)
+        self._v1: float | None = None
+        self._v2: float | None = None
+        self._mismatch = Mismatch(p.count("mismatch_th", DEFAULT_MISMATCH_THRESHOLD))
+        self._latch = Latch(p.atom())
+
+    def feed(self, event: Event) -> list[Verdict]:
+        out: list[Verdict] = []
+        if not isinstance(event, Message):
+            return out
+        fresh = False
+        if event.topic == self.topic1 and (v := field_value(event, self.field1)) is not None:
+            self._v1, fresh = v, True
+        if event.topic == self.topic2 and (v := field_value(event, self.field2)) is not None:
+            self._v2, fresh = v, True
+        if fresh and self._v1 is not None and self._v2 is not None:
+            good = abs(self._v1 - self._v2) <= self.max_diff
+            self._latch.report(event.t, self._mismatch.check(good), out)
+        return out
+
+    def advance(self, t: float) -> list[Verdict]:
+        return []
