@@ -18,8 +18,9 @@ from a recording holds at run time:
   β_n the median of the negative ones, over the last :data:`HISTORY` slopes, and ±∞ when
   there are none of that sign.  No trend is given before :data:`MIN_SLOPES` slopes.
 
-Timing: a slope is known once a sample beyond its window's end has come, so the trend of
-the sample at time c is known after the first sample past c + 3ω/2 (three regressions).
+Timing: a slope is known once a sample beyond its window's end has come, and each of the
+three regressions waits for that, so the trend of the sample at time c is known about 3ω/2
+(plus three sample intervals) after c.
 
 Cost: O(1) amortised per sample.  Each regression keeps running sums over a deque of its
 window; times and values are taken relative to an origin that moves to the newest sample
