@@ -385,3 +385,19 @@ def test_an_unreadable_file_is_an_error(tmp_path: Path) -> None:
         load_truth(tmp_path / "missing.faults.yaml")
     assert err.value.diagnostics[0].code == "RAC085"
     assert "cannot read" in err.value.diagnostics[0].message
+
+
+def test_the_documented_examples_load() -> None:
+    doc = (ROOT / "docs" / "learning.md").read_text()
+    section = doc.split("### Ground truth", 1)[1].split("\n## ", 1)[0]
+    blocks = [b.split("```", 1)[0] for b in section.split("```yaml\n")[1:]]
+    assert len(blocks) == 2
+    model = load_model(PIONEER)
+    synthetic = parse_truth(blocks[0], "doc")
+    assert (
+        synthetic.faults[0]
+        == ground_truth(model, 600.0, thesis_schedule(model, 600.0).faults).faults[0]
+    )
+    written = parse_truth(blocks[1], "doc")
+    assert [f.end for f in written.faults] == [55.5, 120.0]
+    assert check_truth(written, load_model(TEDUSAR)) == []

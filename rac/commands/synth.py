@@ -87,7 +87,7 @@ def register(sub: Any) -> None:
     parser.add_argument(
         "--schedule",
         choices=SCHEDULES,
-        help="inject a fixed series of faults: thesis is §10.2.2's test run (needs 240 s)",
+        help="inject a fixed series of faults: thesis is §10.2.2's test run (six faults: 240 s)",
     )
     parser.add_argument("--force", action="store_true", help="replace RUN if it exists")
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
