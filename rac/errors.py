@@ -141,6 +141,8 @@ CODES: dict[str, str] = {
     "RAC082": "invalid properties CSV",
     "RAC083": "invalid fault specification",
     "RAC084": "output already exists",
+    "RAC085": "invalid faults file (ground truth)",
+    "RAC086": "ground truth does not fit the recording or the model",
     "RAC100": "subscribed topic has no publisher",
     "RAC101": "hardware driven by no node",
     "RAC102": "node with no topics",

@@ -14,7 +14,16 @@ from typing import Any
 
 from rac.commands.common import add_command, load_checked
 from rac.errors import Diagnostic, RacError
-from rac.synth.faults import FAULT_KINDS, FAULT_SPEC, parse_fault
+from rac.synth.faults import FAULT_KINDS, FAULT_SPEC, Fault, parse_fault
+from rac.synth.schedule import (
+    MIN_FAULT_S,
+    MIN_GAP_S,
+    SCHEDULES,
+    WARMUP_S,
+    TooShort,
+    thesis_schedule,
+)
+from rac.synth.truth import beside, dump_truth, ground_truth, truth_path
 
 MAX_DURATION_S = 86_400
 MAX_SEED = 99_999
@@ -42,14 +51,18 @@ def register(sub: Any) -> None:
             "teleoperated motion (odometry yaw integrates its angular velocity, the IMU's yaw "
             "follows it, laser-alignment servos follow the IMU's pitch and roll), real ROS message "
             "types.  RUN ending in .bag is a ROS 1 bag, anything else a ROS 2 bag directory.  The "
-            "nodes' CPU and memory samples go to RUN's name with .properties.csv beside it.  "
-            f"Faults KIND@T[+D]:TARGET start at T s and last D s (default: to the end): {KINDS}.",
+            "nodes' CPU and memory samples go to RUN's name with .properties.csv beside it, the "
+            "injected faults (the ground truth for evaluating diagnoses) to .faults.yaml.  "
+            f"Faults KIND@T[+D]:TARGET start at T s and last D s (default: to the end): {KINDS}.  "
+            "--schedule thesis injects the test run of §10.2.2 (two slips, cpu, mem, freq, "
+            "crash, one after another) with targets chosen from the model.",
             88,
         ),
         "  racc synth models/tedusar.ram -o run.bag --duration 300\n"
         "  racc synth models/tedusar.ram -o run2 --ros2 --storage mcap --seed 7\n"
         "  racc synth models/tedusar.ram -o faulty.bag --fault slip@60+10:/pose "
-        "--fault crash@120:joy_node --fault freq@90+20:/scan --fault cpu@150+10:hector_mapping",
+        "--fault crash@120:joy_node --fault freq@90+20:/scan --fault cpu@150+10:hector_mapping\n"
+        "  racc synth models/pioneer.ram -o test.bag --duration 600 --schedule thesis",
     )
     parser.add_argument("model", metavar="MODEL", help="a .ram file or a ram/1 .json")
     parser.add_argument("-o", "--output", metavar="RUN", required=True, help="the recording")
@@ -71,6 +84,11 @@ def register(sub: Any) -> None:
         type=fault_arg,
         help="inject a fault",
     )
+    parser.add_argument(
+        "--schedule",
+        choices=SCHEDULES,
+        help="inject a fixed series of faults: thesis is §10.2.2's test run (six faults: 240 s)",
+    )
     parser.add_argument("--force", action="store_true", help="replace RUN if it exists")
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     parser.set_defaults(run=run)
@@ -78,8 +96,7 @@ def register(sub: Any) -> None:
 
 def properties_path(run: Path) -> Path:
     """``run.bag`` -> ``run.properties.csv``; ``run/`` -> ``run.properties.csv`` beside it."""
-    stem = run.name[: -len(".bag")] if run.name.endswith(".bag") else run.name
-    return run.with_name(stem + ".properties.csv")
+    return beside(run, ".properties.csv")
 
 
 def _remove(path: Path) -> None:
@@ -116,9 +133,28 @@ def run(args: argparse.Namespace) -> int:
         print(f"racc synth: error: {problem}", file=sys.stderr)
         return 2
     model = load_checked(args.model)
-    faults = tuple(parse_fault(f, model) for f in args.fault)
+    faults: tuple[Fault, ...] = ()
+    if args.schedule == "thesis":
+        try:
+            schedule = thesis_schedule(model, args.duration)
+        except TooShort as err:
+            print(
+                f"racc synth: error: --schedule thesis needs --duration {err.minimum:g} or more "
+                f"({err.count} faults for {model.name.value}: a {WARMUP_S:g} s warm-up, then "
+                f"{MIN_FAULT_S:g} s per fault and {MIN_GAP_S:g} s of recovery after each)",
+                file=sys.stderr,
+            )
+            return 2
+        for note in schedule.notes:
+            print(f"racc synth: note: --schedule thesis: {note}", file=sys.stderr)
+        faults = schedule.faults
+    faults += tuple(parse_fault(f, model, args.duration) for f in args.fault)
+    faults = tuple(sorted(faults, key=lambda f: (f.start, f.end, f.kind, f.target)))
     csv_path = properties_path(out)
-    for target in (out, csv_path):
+    faults_path = truth_path(out)
+    truth = dump_truth(ground_truth(model, args.duration, faults), out.name)
+    outputs = (out, csv_path, faults_path)
+    for target in outputs:
         if (target.exists() or target.is_symlink()) and not args.force:
             raise RacError(
                 [Diagnostic("RAC084", f"{target} exists", hint="remove it or pass --force")]
@@ -134,17 +170,20 @@ def run(args: argparse.Namespace) -> int:
             count = write_recording(plan, staged)
             staged_csv = Path(tmp) / csv_path.name
             staged_csv.write_text(plan.properties, encoding="utf-8")
-            for target in (out, csv_path):
+            staged_truth = Path(tmp) / faults_path.name
+            staged_truth.write_text(truth, encoding="utf-8")
+            for target in outputs:
                 _remove(target)
             os.replace(staged, out)
             os.replace(staged_csv, csv_path)
+            os.replace(staged_truth, faults_path)
     except OSError as err:
         raise RacError([Diagnostic("RAC004", f"{out}: cannot write: {err}")]) from None
     if not args.quiet:
         kind = "ROS 1 bag" if ros_version == 1 else f"ROS 2 bag ({storage})"
         print(
             f"wrote {out} ({kind}): {count} messages on {len(plan.topics)} topics, "
-            f"{args.duration:g} s; properties -> {csv_path}"
+            f"{args.duration:g} s; properties -> {csv_path}; faults -> {faults_path}"
         )
         for line in fault_summary(faults):
             print(f"  fault: {line}")

@@ -40,7 +40,9 @@ def _bad(spec: str, why: str) -> RacError:
     return RacError([Diagnostic("RAC083", f"fault '{spec}': {why}", hint=hint)])
 
 
-def parse_fault(spec: str, model: Model) -> Fault:
+def parse_fault(spec: str, model: Model, duration: float | None = None) -> Fault:
+    """The fault ``spec`` names, checked against the model (and the recording's duration):
+    a fault the recording would not show would be false ground truth."""
     match = FAULT_SPEC.fullmatch(spec.strip())
     if match is None:
         raise _bad(spec, "not of the form KIND@T[+D]:TARGET")
@@ -51,12 +53,21 @@ def parse_fault(spec: str, model: Model) -> Fault:
     if target not in names:
         what = FAULT_KINDS[kind]
         raise _bad(spec, f"the model has no {what} '{target}' (one of {', '.join(sorted(names))})")
-    slipping = model.topic_by_name().get(target)
-    if kind == "slip" and slipping is not None and slipping.msg_type != ODOMETRY:
+    topic = model.topic_by_name().get(target)
+    odometry = topic is not None and (topic.msg_type or "").replace("/msg/", "/") == ODOMETRY
+    if kind == "slip" and not odometry:
         raise _bad(spec, f"slip needs an odometry topic ({ODOMETRY}), not '{target}'")
+    if FAULT_KINDS[kind] == "topic" and target not in model.publishers():
+        raise _bad(spec, f"no node publishes '{target}'")
+    if kind == "freq" and topic is not None and topic.rate_hz is None:
+        raise _bad(spec, f"freq needs a regular topic (one with a rate), not '{target}'")
     try:
         start = float(match["t"])
-        duration = float(match["d"]) if match["d"] else None
+        length = float(match["d"]) if match["d"] else None
     except ValueError:
         raise _bad(spec, "T and D are seconds") from None
-    return Fault(kind, start, duration, target)
+    if length is not None and length <= 0:
+        raise _bad(spec, "D must be above 0 s")
+    if duration is not None and start >= duration:
+        raise _bad(spec, f"it starts at or after the end of the recording ({duration:g} s)")
+    return Fault(kind, start, length, target)
