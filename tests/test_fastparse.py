@@ -49,6 +49,7 @@ interval /t.x~/t.y.z within 0.25;
 """
 PIECES = [" ", "\n", ";", ",", "#c\n", "{", "}", "x", "/", "~", ".", "1", "Hz", "from", "+-"]
 PIECES += ["±", "\t", "s", "ms", "%", "MB", "node", "topic", "  ", "@", ":", "0.5", "-", "\r\n"]
+PIECES += ["I(", "(", ")", "I"]
 
 
 def _lark(text: str) -> str:
@@ -166,3 +167,20 @@ def test_integrated_sides(text: str) -> None:
 def test_integrated_sides_usually_take_the_fast_path() -> None:
     read = [_same_or_bail("robot r\n" + text) for text in INTEGRALS[:10]]
     assert all(read), read
+
+
+def test_integral_mutants() -> None:
+    # Mutants of relations and intervals with I(...) sides, where the edits land near them.
+    text = "robot r\ntopic /a { b }\n" + "".join(INTEGRALS[:10])
+    rng = random.Random(5)
+    read = 0
+    for _ in range(600):
+        mutant = text
+        for _ in range(rng.randint(1, 3)):
+            pos = rng.randrange(len(mutant) + 1)
+            if rng.random() < 0.5:
+                mutant = mutant[:pos] + rng.choice(PIECES) + mutant[pos:]
+            else:
+                mutant = mutant[:pos] + mutant[pos + rng.randint(1, 4) :]
+        read += _same_or_bail(mutant)
+    assert read > 20
