@@ -112,6 +112,7 @@ CODES: dict[str, str] = {
     "RAC028": "invalid ROS name",
     "RAC029": "invalid value",
     "RAC030": "duplicate statement",
+    "RAC031": "integrated field I(...) in an interval",
     "RAC040": "unknown atom in an observation",
     "RAC041": "malformed literal",
     "RAC042": "unknown component",

@@ -166,7 +166,10 @@ _CPU_MEM = re.compile(
     rf"cpu{_S}+({_A_NUMBER}){_S}*%{_S}*,{_S}*mem{_S}+({_A_NUMBER}){_S}*({_UNITS}){_END}"
 )
 _CLOSE_LINE = re.compile(rf"{_S}*\}}{_TAIL}")
-_RELATE_LINE = re.compile(rf"relate{_S}+({_A_FIELD_REF}){_S}*~{_S}*({_A_FIELD_REF}){_TAIL}")
+# Either side may be 'I(' FIELD_REF ')' (an integrated field) written without blanks.
+_RELATE_LINE = re.compile(
+    rf"relate{_S}+(I\()?({_A_FIELD_REF})(?(1)\)){_S}*~{_S}*(I\()?({_A_FIELD_REF})(?(3)\)){_TAIL}"
+)
 _INTERVAL_LINE = re.compile(
     rf"interval{_S}+({_A_FIELD_REF}){_S}*~{_S}*({_A_FIELD_REF})"
     rf"{_S}*within{_END}{_S}*({_A_NUMBER}){_TAIL}"
@@ -606,18 +609,27 @@ class _Reader:
         return self.node()
 
     def relate_line(self, m: re.Match[str]) -> Related:
-        a, b, _, semi, comment = m.groups()
+        semi, comment = m[6], m[7]
         path, line, base = self.path, self.line, self.line_start - 1
-        end = m.end(4) if semi is not None else m.start(3)
-        a_column, b_column = m.start(1) - base, m.start(2) - base
+        end = m.end(6) if semi is not None else m.start(5)
         if comment is not None:
-            self._comment(m.start(5), comment, line, base)
+            self._comment(m.start(7), comment, line, base)
         self._next_line(m.end())
-        return Related(
-            FieldRef.parse(a, _span(path, line, a_column, line, a_column + len(a))),
-            FieldRef.parse(b, _span(path, line, b_column, line, b_column + len(b))),
-            span=_span(path, line, m.start() - base, line, end - base),
-        )
+        sides = []
+        for group in (2, 4):  # each side's FIELD_REF, after its optional 'I(' group
+            text = m[group]
+            if m[group - 1] is None:
+                column = m.start(group) - base
+                span = _span(path, line, column, line, column + len(text))
+                sides.append(FieldRef.parse(text, span))
+            else:
+                # I(...): the span runs from the 'I' to the ')'.
+                column = m.start(group - 1) - base
+                span = _span(path, line, column, line, m.end(group) + 1 - base)
+                topic, _, field = text.partition(".")
+                sides.append(FieldRef(topic, field, span, integrated=True))
+        span = _span(path, line, m.start() - base, line, end - base)
+        return Related(sides[0], sides[1], span=span)
 
     def interval_line(self, m: re.Match[str]) -> Interval:
         a, b, diff, _, semi, comment = m.groups()
@@ -936,14 +948,28 @@ class _Reader:
         text, span = self.spanned(_FIELD_REF)
         return FieldRef.parse(text, span)
 
+    def side(self) -> FieldRef:
+        """A field reference or ``I(`` field reference ``)``; the lexer tries FIELD_REF first."""
+        if _FIELD_REF.match(self.text, self.pos) is not None:
+            return self.field_ref()
+        start = self.keyword("I")
+        self.skip()
+        self.char("(")
+        self.skip()
+        text = self.regex(_FIELD_REF)
+        self.skip()
+        self.char(")")
+        topic, _, field = text.partition(".")
+        return FieldRef(topic, field, self.span_from(start), integrated=True)
+
     def _pair(self, keyword: str) -> tuple[tuple[int, int], FieldRef, FieldRef]:
         start = self.keyword(keyword)
         self.skip()
-        a = self.field_ref()
+        a = self.side()
         self.skip()
         self.char("~")
         self.skip()
-        b = self.field_ref()
+        b = self.side()
         return start, a, b
 
     def relate(self) -> Related:

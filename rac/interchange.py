@@ -1,4 +1,8 @@
-"""The JSON interchange ``ram/1`` (contract §1): read and write."""
+"""The JSON interchange ``ram/1`` (contract §1): read and write.
+
+A field reference is a string, ``"/pose.yaw"``, or ``"I(/pose.twist.twist.angular.z)"`` for
+an integrated side, exactly as the ``.ram`` text writes it.
+"""
 
 from __future__ import annotations
 
@@ -221,9 +225,10 @@ class _Reader:
 
     def field_ref(self, value: Any, where: str) -> FieldRef:
         text = self.typed(value, str, "a field reference 'TOPIC.FIELD'", where) or ""
-        if text and "." not in text:
-            self.fail(where, f"'{text}' is not TOPIC.FIELD")
-        return FieldRef.parse(text)
+        ref = FieldRef.parse(text)
+        if text and ("." not in text or ref.text != text or "(" in ref.path or ")" in ref.path):
+            self.fail(where, f"'{text}' is not TOPIC.FIELD or I(TOPIC.FIELD)")
+        return ref
 
     def related(self, value: Any, where: str) -> Related:
         pair = self.typed(value, list, "a pair of field references", where) or []

@@ -90,25 +90,40 @@ class Node:
 
 @dataclass(frozen=True, slots=True)
 class FieldRef:
-    """``TOPIC.FIELD_PATH``; ROS names hold no dots, so the first dot splits them."""
+    """``TOPIC.FIELD_PATH``, or ``I(TOPIC.FIELD_PATH)`` for its running integral.
+
+    ROS names hold no dots, so the first dot splits them.  An integrated reference's
+    span runs from the ``I`` to the closing parenthesis.
+    """
 
     topic: str
     field: str
     span: Span | None = dataclasses.field(default=None, compare=False)
+    integrated: bool = False
+
+    @property
+    def path(self) -> str:
+        """``TOPIC.FIELD_PATH``, without ``I()``."""
+        return f"{self.topic}.{self.field}"
 
     @property
     def text(self) -> str:
-        return f"{self.topic}.{self.field}"
+        """The reference as written: ``/pose.yaw`` or ``I(/pose.twist.twist.angular.z)``."""
+        return f"I({self.topic}.{self.field})" if self.integrated else f"{self.topic}.{self.field}"
 
     @staticmethod
     def parse(text: str, span: Span | None = None) -> FieldRef:
+        """Read :attr:`text` back: ``TOPIC.FIELD_PATH`` or ``I(TOPIC.FIELD_PATH)``."""
+        integrated = text.startswith("I(") and text.endswith(")")
+        if integrated:
+            text = text[2:-1]
         topic, _, path = text.partition(".")
-        return FieldRef(topic, path, span)
+        return FieldRef(topic, path, span, integrated)
 
 
 @dataclass(frozen=True, slots=True)
 class Related:
-    """δ_rel: two fields whose qualitative trends match (BiQObs)."""
+    """δ_rel: two fields (either may be integrated) whose qualitative trends match (BiQObs)."""
 
     a: FieldRef
     b: FieldRef

@@ -21,6 +21,15 @@ def mangle(name: str) -> str:
     return name.removeprefix("/").replace("/", "_").replace(".", "_").replace("-", "_")
 
 
+INTEGRAL_PREFIX = "I_"
+
+
+def integral_arg(field: str) -> str:
+    """The atom argument of an integrated field: ``twist.twist.angular.z`` (in ``I(...)``)
+    -> ``I_twist_twist_angular_z``."""
+    return INTEGRAL_PREFIX + mangle(field)
+
+
 @dataclass(frozen=True, slots=True, order=True)
 class Atom:
     predicate: str

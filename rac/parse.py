@@ -50,6 +50,9 @@ _TERMINAL_WORDS = {
     "AT": "'@'",
     "PERCENT": "'%'",
     "TILDE": "'~'",
+    "I": "'I(' (an integrated field)",
+    "LPAR": "'('",
+    "RPAR": "')'",
     "$END": "the end of the file",
 }
 
@@ -320,15 +323,22 @@ class _Lower(Transformer[Token, Any]):
         return ("mem", round(_number(value) * MEM_UNITS[str(unit)]))
 
     # relations -----------------------------------------------------------
-    def _field_ref(self, token: Token) -> FieldRef:
-        return FieldRef.parse(str(token), _span(self.path, token))
+    def _field_ref(self, side: Token | FieldRef) -> FieldRef:
+        if isinstance(side, FieldRef):
+            return side
+        return FieldRef.parse(str(side), _span(self.path, side))
 
-    def relate(self, meta: Meta, children: list[Token]) -> Related:
+    def integral(self, meta: Meta, children: list[Token]) -> FieldRef:
+        topic, _, path = str(children[0]).partition(".")
+        return FieldRef(topic, path, _span(self.path, meta), integrated=True)
+
+    def relate(self, meta: Meta, children: list[Token | FieldRef]) -> Related:
         a, b = children
         return Related(self._field_ref(a), self._field_ref(b), span=_span(self.path, meta))
 
-    def interval(self, meta: Meta, children: list[Token]) -> Interval:
+    def interval(self, meta: Meta, children: list[Token | FieldRef]) -> Interval:
         a, b, diff = children
+        assert isinstance(diff, Token)
         return Interval(
             self._field_ref(a), self._field_ref(b), _number(diff), span=_span(self.path, meta)
         )

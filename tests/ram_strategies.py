@@ -2,8 +2,9 @@
 
 ``models()`` draws a :class:`rac.ir.Model` that passes validation: unique names that
 mangle apart, switchable hardware on distinct channels, ``affected_by`` within the node's
-subscriptions and never the published topic itself, related/interval pairs over fields
-of published topics.  ``rac.fmt.format_model`` turns one into ``.ram`` text.
+subscriptions and never the published topic itself, related pairs (either side perhaps
+integrated, ``I(...)``) and interval pairs over fields of published topics.
+``rac.fmt.format_model`` turns one into ``.ram`` text.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ _RATE = st.one_of(
     st.sampled_from([1.0, 2.5, 10.0, 20.0, 40.0, 100.0]),
     st.floats(min_value=0.05, max_value=2000.0, allow_nan=False, allow_infinity=False),
 )
-_KEYWORDS = ["from", "window", "node", "topic", "within", "Hz", "cpu", "mem", "relate"]
+_KEYWORDS = ["from", "window", "node", "topic", "within", "Hz", "cpu", "mem", "relate", "I"]
 _POSITIVE = st.floats(min_value=1e-3, max_value=1e4, allow_nan=False, allow_infinity=False)
 
 
@@ -138,6 +139,8 @@ def models(
     if len(refs) >= 2:
         pair = st.lists(st.sampled_from(refs), min_size=2, max_size=2, unique=True)
         for a, b in draw(st.lists(pair, max_size=3)):
+            # Either side may be integrated, I(...), a distinct pair of atoms.
+            a, b = (f"I({r})" if draw(st.booleans()) else r for r in (a, b))
             if frozenset((a, b)) not in seen:
                 seen.add(frozenset((a, b)))
                 related.append(Related(FieldRef.parse(a), FieldRef.parse(b)))

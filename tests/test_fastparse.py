@@ -49,6 +49,7 @@ interval /t.x~/t.y.z within 0.25;
 """
 PIECES = [" ", "\n", ";", ",", "#c\n", "{", "}", "x", "/", "~", ".", "1", "Hz", "from", "+-"]
 PIECES += ["±", "\t", "s", "ms", "%", "MB", "node", "topic", "  ", "@", ":", "0.5", "-", "\r\n"]
+PIECES += ["I(", "(", ")", "I"]
 
 
 def _lark(text: str) -> str:
@@ -130,3 +131,56 @@ def test_declarations_continued_on_the_next_line() -> None:
     text += "node m drives a {\n  publishes /t\n}\n  # c\n ;\nrelate /t.x ~ /u.y\n# c\n;\n"
     text += "interval /t.x ~ /u.y within 2\n;\n"
     assert _same_or_bail(text)
+
+
+# Integrated sides, I(...): one-line, spread over lines, with comments inside, glued, and
+# the near misses Lark rejects (which the fast path must leave to it).
+INTEGRALS = [
+    "relate I(/a.b.c) ~ /d.e\n",
+    "relate /d.e ~ I(/a.b.c);# c\n",
+    "relate I(/a.b)~I(/d.e)\n",
+    "relate I.x ~ I(/a.b)\n",  # a topic named I
+    "relate I ( /a.b ) ~ /c.d\n",
+    "relate I( # c\n /a.b\n) ~ /c.d\n",
+    "relate I(/a.b)\n ~ /c.d\n",
+    "relate I(/a.b) ~ /c.d\n;\n",
+    "interval I(/a.b) ~ /c.d within 1\n",
+    "interval /c.d ~ I(/a.b) within 1;\n",
+    "relate Ix(/a.b) ~ /c.d\n",
+    "relate I(/a.b ~ /c.d\n",
+    "relate I/a.b) ~ /c.d\n",
+    "relate i(/a.b) ~ /c.d\n",
+    "relate I(I(/a.b)) ~ /c.d\n",
+    "relate I() ~ /c.d\n",
+    "relateI(/a.b) ~ /c.d\n",
+]
+
+
+@pytest.mark.parametrize("text", INTEGRALS)
+def test_integrated_sides(text: str) -> None:
+    source = "robot r\ntopic /a { b }\n" + text
+    if _same_or_bail(source):
+        model, _ = fast_parse(source, "f.ram")
+        assert any(r.integrated for p in (*model.related, *model.intervals) for r in (p.a, p.b))
+
+
+def test_integrated_sides_usually_take_the_fast_path() -> None:
+    read = [_same_or_bail("robot r\n" + text) for text in INTEGRALS[:10]]
+    assert all(read), read
+
+
+def test_integral_mutants() -> None:
+    # Mutants of relations and intervals with I(...) sides, where the edits land near them.
+    text = "robot r\ntopic /a { b }\n" + "".join(INTEGRALS[:10])
+    rng = random.Random(5)
+    read = 0
+    for _ in range(600):
+        mutant = text
+        for _ in range(rng.randint(1, 3)):
+            pos = rng.randrange(len(mutant) + 1)
+            if rng.random() < 0.5:
+                mutant = mutant[:pos] + rng.choice(PIECES) + mutant[pos:]
+            else:
+                mutant = mutant[:pos] + mutant[pos + rng.randint(1, 4) :]
+        read += _same_or_bail(mutant)
+    assert read > 20

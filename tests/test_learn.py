@@ -115,6 +115,10 @@ def _check_learned(robot: Robot, result: LearnResult) -> None:
             assert 0 < got.rate_tolerance_hz < got.rate_hz
     related = _related(result)
     assert frozenset((f"{robot.imu}.yaw", f"{robot.odometry}.yaw")) in related
+    # The heading integrates the turn rate: only the integrated rate matches, declared I().
+    turn = f"I({robot.odometry}.twist.twist.angular.z)"
+    assert frozenset((turn, f"{robot.odometry}.yaw")) in related
+    assert frozenset((turn[2:-1], f"{robot.odometry}.yaw")) not in related
     # Heading and ground slope are independent in the synthetic world.
     assert frozenset((f"{robot.imu}.pitch", f"{robot.odometry}.yaw")) not in related
     compile_model(result.model)

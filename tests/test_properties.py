@@ -53,6 +53,8 @@ def check_launch(text: str, kind_attr: str, observers: list[dict[str, Any]]) -> 
         for key, value in obs["params"].items():
             if isinstance(value, str):
                 assert params[key] == value, (key, value)
+            elif isinstance(value, bool):
+                assert params[key] == ("true" if value else "false"), (key, value)
             else:
                 assert float(params[key]) == value, (key, value)
     assert len(nodes) == len(observers) + 1, "one node per observer plus the model server"

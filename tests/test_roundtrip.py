@@ -153,6 +153,9 @@ def test_json_unknown_key_is_an_error(where: str) -> None:
         (lambda d: d["topics"][0].update(rate_hz="fast"), "a number"),
         (lambda d: d["nodes"][0].update(subscribes="/cmd_vel"), "a list"),
         (lambda d: d["related"][0].pop(), "two field references"),
+        (lambda d: d["related"][0].__setitem__(0, "I(/pose.yaw"), "I(TOPIC.FIELD)"),
+        (lambda d: d["related"][0].__setitem__(0, "J(/pose.yaw)"), "I(TOPIC.FIELD)"),
+        (lambda d: d["related"][0].__setitem__(0, "I(/pose)"), "I(TOPIC.FIELD)"),
     ],
 )
 def test_json_shape_errors(change: Any, words: str) -> None:
@@ -251,3 +254,29 @@ def test_fast_parser_builds_what_lark_builds(text: str) -> None:
 def test_fast_parser_reads_the_examples(path: Path) -> None:
     lark, fast = _lark_and_fast(path.read_text(encoding="utf-8"))
     assert fast == lark
+
+
+INTEGRATED = """robot r
+
+topic /pose { yaw, twist.twist.angular.z } @ 10 Hz
+
+node base {
+  publishes /pose
+}
+
+relate I(/pose.twist.twist.angular.z) ~ /pose.yaw
+"""
+
+
+def test_integrated_side_in_json_and_fmt() -> None:
+    model = parse_ram(INTEGRATED, "r.ram")
+    doc = model_to_json(model)
+    assert doc["related"] == [["I(/pose.twist.twist.angular.z)", "/pose.yaw"]]
+    (rel,) = parse_json(json.dumps(doc)).related
+    assert rel.a.integrated and not rel.b.integrated
+    assert rel.a.path == "/pose.twist.twist.angular.z"
+    round_trip(model)
+    assert format_model(model) == INTEGRATED
+    integral = "I(/pose.twist.twist.angular.z)"
+    spaced = INTEGRATED.replace(integral, "I( /pose.twist.twist.angular.z )")
+    assert format_model(parse_ram(spaced)) == INTEGRATED

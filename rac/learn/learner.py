@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from rac.ir import FieldRef, Hardware, Limits, Model, Name, Node, Publication, Related, Topic
+from rac.ir import Hardware, Limits, Model, Name, Node, Publication, Related, Topic
 from rac.learn.correlate import correlations
 from rac.learn.frequency import RateStats, rate_stats
 from rac.learn.graph import Graph
@@ -234,19 +234,12 @@ def _learn_relations(
     for rel in group_relations(correlations(trends, options.q, options.min_lift)):
         if not {rel.a[0], rel.b[0]} <= declarable:
             undeclared.append(
-                f"relate {rel.a[0]}.{rel.a[1]} ~ {rel.b[0]}.{rel.b[1]}: "
-                f"{rel.evidence()} (a topic has no known publisher)"
+                f"{rel.declaration()}: {rel.evidence()} (a topic has no known publisher)"
             )
             continue
-        if rel.integrated:
-            # The binary qualitative observer compares raw trends: declared, a pair that only
-            # matches with one side integrated would read "not matched" on a healthy robot.
-            undeclared.append(
-                f"relate {rel.a[0]}.{rel.a[1]} ~ {rel.b[0]}.{rel.b[1]}: {rel.evidence()} "
-                "(not declared: the observer cannot integrate a signal)"
-            )
-            continue
-        related.append(Related(FieldRef(*rel.a), FieldRef(*rel.b), comments=(rel.evidence(),)))
+        # A pair that only matched with one side integrated is declared with I() on that
+        # side: its observer integrates it, so it reads "matched" on a healthy robot.
+        related.append(Related(*rel.sides(), comments=(rel.evidence(),)))
         kept.append(rel)
     return related, kept
 

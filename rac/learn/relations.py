@@ -1,9 +1,9 @@
 """From correlated signals to ``relate`` declarations, one per pair of fields.
 
-Algorithm 16 may find a field pair correlated raw, or with one side integrated.  The model
-language relates fields, not integrals, so each field pair becomes one ``relate`` line and
-its evidence comment names every variant that matched (``I(/pose.twist.twist.angular.z)``
-marks the integrated side).
+Algorithm 16 may find a field pair correlated raw, or with one side integrated.  Each field
+pair becomes one ``relate`` line: raw when the raw trends matched, otherwise with the
+integrated side of its best variant written ``I(...)`` (the binary qualitative observer
+integrates that side).  Its evidence comment names every variant that matched.
 """
 
 from __future__ import annotations
@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from rac.ir import FieldRef
 from rac.learn.correlate import Correlation
 
 
@@ -26,7 +27,20 @@ class LearnedRelation:
 
     @property
     def integrated(self) -> bool:
-        return not any(not v.a.integrated and not v.b.integrated for v in self.variants)
+        """Only matched with one side integrated (variants are raw first)."""
+        return self.best.a.integrated or self.best.b.integrated
+
+    def sides(self) -> tuple[FieldRef, FieldRef]:
+        """What to declare: ``a`` and ``b``, the side the best variant integrates as I()."""
+        integrated = {(s.topic, s.field) for s in (self.best.a, self.best.b) if s.integrated}
+        return (
+            FieldRef(*self.a, integrated=self.a in integrated),
+            FieldRef(*self.b, integrated=self.b in integrated),
+        )
+
+    def declaration(self) -> str:
+        a, b = self.sides()
+        return f"relate {a.text} ~ {b.text}"
 
     def evidence(self) -> str:
         parts = []
@@ -35,10 +49,7 @@ class LearnedRelation:
                 f"{v.a.text} ~ {v.b.text}: {v.ratio:.2f} ({v.matches}/{v.checks}, "
                 f"chance {v.chance:.2f})"
             )
-        note = "trend match ratio " + "; ".join(parts)
-        if self.integrated:
-            note += " [integrated only: the observer needs I() of that side]"
-        return note
+        return "trend match ratio " + "; ".join(parts)
 
 
 def group_relations(found: Sequence[Correlation]) -> list[LearnedRelation]:

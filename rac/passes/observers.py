@@ -8,17 +8,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from rac.ir import Model, Topic
+from rac.ir import FieldRef, Model, Topic
 from rac.logic import Atom, mangle
 from rac.passes.rbm import field_atom, ok
 
 DEFAULT_WINDOW_OCCURRENCES = 10  # ω = c / freq with c = 10 (Equation 5.3)
 DEFAULT_MISMATCH_THRESHOLD = 5
+DEFAULT_PAIR_WINDOW_S = 1.0  # a related pair of two irregular topics
 DEFAULT_RATE_TOLERANCE = 0.1  # ±10 % of the rate when the model gives none
 BOARD_TOPIC = "/board_measurements"
 DIAGNOSTICS_TOPIC = "/diagnostics"
 
-ParamValue = str | int | float
+ParamValue = str | int | float  # bool is an int
 
 
 @dataclass(frozen=True, slots=True)
@@ -106,13 +107,18 @@ def derive_observers(model: Model) -> tuple[ObserverSpec, ...]:
         atoms = tuple(Atom("on", (mangle(h.name.value),)) for h in switchable)
         params = (("topic", BOARD_TOPIC), ("channels", channels))
         specs.append(ObserverSpec("HObs", "board_hobs", params, atoms))
+    topics = model.topic_by_name()
     for i, rel in enumerate(model.related, start=1):
-        params = _pair_params(rel.a.topic, rel.a.field, rel.b.topic, rel.b.field)
+        params = biqobs_params(rel.a, rel.b, topics)
         atom = field_atom("matched", rel.a, rel.b)
         specs.append(ObserverSpec("BiQObs", f"biq{i}_biqobs", params, (atom,)))
     for i, iv in enumerate(model.intervals, start=1):
         params = (
-            *_pair_params(iv.a.topic, iv.a.field, iv.b.topic, iv.b.field),
+            ("topic1", iv.a.topic),
+            ("field1", iv.a.field),
+            ("topic2", iv.b.topic),
+            ("field2", iv.b.field),
+            ("mismatch_th", DEFAULT_MISMATCH_THRESHOLD),
             ("max_diff", iv.max_diff),
         )
         atom = field_atom("equal", iv.a, iv.b)
@@ -120,12 +126,29 @@ def derive_observers(model: Model) -> tuple[ObserverSpec, ...]:
     return tuple(specs)
 
 
-def _pair_params(t1: str, f1: str, t2: str, f2: str) -> tuple[tuple[str, ParamValue], ...]:
+def biqobs_params(
+    a: FieldRef, b: FieldRef, topics: dict[str, Topic]
+) -> tuple[tuple[str, ParamValue], ...]:
+    """Each side's topic, field and whether it is integrated, the regression window ws
+    and θ.
+
+    Both sides' trends come from one window so that they are comparable: ω = c / freq
+    (Equation 5.3) of the slower regular topic, 1 s when neither topic has a rate.
+    """
+    rates = [
+        t.rate_hz
+        for t in (topics.get(a.topic), topics.get(b.topic))
+        if t is not None and t.rate_hz is not None
+    ]
+    window = DEFAULT_WINDOW_OCCURRENCES / min(rates) if rates else DEFAULT_PAIR_WINDOW_S
     return (
-        ("topic1", t1),
-        ("field1", f1),
-        ("topic2", t2),
-        ("field2", f2),
+        ("topic1", a.topic),
+        ("field1", a.field),
+        ("integral1", a.integrated),
+        ("topic2", b.topic),
+        ("field2", b.field),
+        ("integral2", b.integrated),
+        ("ws", _round(window)),
         ("mismatch_th", DEFAULT_MISMATCH_THRESHOLD),
     )
 

@@ -10,7 +10,7 @@ import functools
 from collections.abc import Iterator
 
 from rac.ir import FieldRef, Model
-from rac.logic import NAB, Atom, Clause, mangle
+from rac.logic import NAB, Atom, Clause, integral_arg, mangle
 
 
 # Atoms are immutable, and a model names each component and topic in many clauses:
@@ -25,9 +25,15 @@ def ok(*names: str) -> Atom:
     return Atom("ok", tuple(mangle(n) for n in names))
 
 
+def field_arg(ref: FieldRef) -> str:
+    """A field's atom argument: ``twist_twist_angular_z``, or ``I_twist_twist_angular_z``
+    for ``I(...)``."""
+    return integral_arg(ref.field) if ref.integrated else mangle(ref.field)
+
+
 def field_atom(predicate: str, a: FieldRef, b: FieldRef) -> Atom:
     """``matched(t1,f1,t2,f2)`` / ``equal(...)`` for a field pair."""
-    return Atom(predicate, (mangle(a.topic), mangle(a.field), mangle(b.topic), mangle(b.field)))
+    return Atom(predicate, (mangle(a.topic), field_arg(a), mangle(b.topic), field_arg(b)))
 
 
 def _unique(atoms: list[Atom]) -> tuple[Atom, ...]:

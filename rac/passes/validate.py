@@ -13,7 +13,7 @@ from collections.abc import Callable, Iterable, Iterator
 
 from rac.errors import Diagnostic, Severity, Span, did_you_mean
 from rac.ir import FieldRef, Model, Name
-from rac.logic import mangle
+from rac.logic import integral_arg, mangle
 
 Rule = Callable[[Model], Iterable[Diagnostic]]
 
@@ -155,8 +155,9 @@ def check_field_pairs(model: Model) -> Iterator[Diagnostic]:
     topics = model.topic_by_name()
     publishers = model.publishers()
     for a, b, span, what in _field_refs(model):
-        if a.text == b.text:
-            yield _error("RAC022", f"{what} names the field {a.text} twice", span)
+        # A field against its own integral is no relation either (Algorithm 16).
+        if a.path == b.path:
+            yield _error("RAC022", f"{what} names the field {a.path} twice", span)
         for ref in (a, b):
             topic = topics.get(ref.topic)
             if topic is None:
@@ -173,6 +174,19 @@ def check_field_pairs(model: Model) -> Iterator[Diagnostic]:
             elif ref.topic not in publishers:
                 msg = f"{what} names topic '{ref.topic}', which no node publishes"
                 yield _error("RAC023", msg, ref.span)
+
+
+def check_interval_sides(model: Model) -> Iterator[Diagnostic]:
+    """An interval bounds the difference of two raw values: I(...) belongs to 'relate'."""
+    for iv in model.intervals:
+        for ref in (iv.a, iv.b):
+            if ref.integrated:
+                msg = f"an interval cannot bound the integrated field {ref.text}"
+                hint = (
+                    f"write 'interval {ref.path} ~ …' to bound the raw value, or "
+                    f"'relate {ref.text} ~ …' to compare trends"
+                )
+                yield _error("RAC031", msg, ref.span, hint)
 
 
 def check_channels(model: Model) -> Iterator[Diagnostic]:
@@ -237,14 +251,23 @@ def check_mangling(model: Model) -> Iterator[Diagnostic]:
     topics = {t.name.value for t in model.topics}
     devices = [d for n in model.nodes for d in n.diagnostics]
     groups.append(("topic or reported device", [*(t.name for t in model.topics), *devices]))
-    groups.extend((f"field of {t.name.value}", list(t.fields)) for t in model.topics)
+    # matched(...) names an integrated side I_<field>: it must not meet a declared field.
+    integrated: dict[str, list[Name]] = defaultdict(list)
+    for rel in model.related:
+        for ref in (rel.a, rel.b):
+            if ref.integrated:
+                integrated[ref.topic].append(Name(f"I({ref.field})", ref.span))
+    groups.extend(
+        (f"field of {t.name.value}", [*t.fields, *integrated.get(t.name.value, ())])
+        for t in model.topics
+    )
     for kind, names in groups:
         values = {n.value for n in names}
-        if len({mangle(v) for v in values}) == len(values):
+        if len({_atom_arg(v) for v in values}) == len(values):
             continue  # every atom comes from one name: nothing clashes (the usual case)
         by_atom: dict[str, list[Name]] = defaultdict(list)
         for name in names:
-            by_atom[mangle(name.value)].append(name)
+            by_atom[_atom_arg(name.value)].append(name)
         for atom, clash in by_atom.items():
             distinct = sorted({n.value for n in clash})
             seen_above = set(distinct) <= topics or set(distinct) <= hardware
@@ -252,7 +275,16 @@ def check_mangling(model: Model) -> Iterator[Diagnostic]:
                 first = next(n for n in clash if n.value != clash[-1].value)
                 msg = f"{kind} names {' and '.join(repr(d) for d in distinct)} both become '{atom}'"
                 hint = "rename one of them; '/', '.' and '-' all mangle to '_'"
+                if any(d.startswith("I(") for d in distinct):
+                    hint += "; I(FIELD) becomes I_FIELD"
                 yield _error("RAC027", msg, clash[-1].span or first.span, hint)
+
+
+def _atom_arg(name: str) -> str:
+    """The atom argument of a name; ``I(FIELD)`` stands for an integrated field."""
+    if name.startswith("I(") and name.endswith(")"):
+        return integral_arg(name[2:-1])
+    return mangle(name)
 
 
 def check_usage(model: Model) -> Iterator[Diagnostic]:
@@ -288,6 +320,7 @@ RULES: tuple[Rule, ...] = (
     check_duplicate_statements,
     check_affected_by,
     check_field_pairs,
+    check_interval_sides,
     check_channels,
     check_values,
     check_mangling,

@@ -13,6 +13,8 @@ MODEL_SERVER_NAME = "diagnosis_model_server"
 
 
 def param_text(value: object) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"  # what roslaunch and ROS 2 read as a bool
     if isinstance(value, float):
         return repr(value)
     return str(value)
