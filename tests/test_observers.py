@@ -40,7 +40,8 @@ def test_parameters_in_order(biqobs: list[dict[str, object]]) -> None:
 
 def test_window_is_that_of_the_slower_regular_topic(biqobs: list[dict[str, object]]) -> None:
     assert biqobs[0]["ws"] == 1.0  # 10 / min(10 Hz, 100 Hz)
-    assert biqobs[1]["ws"] == 0.1  # only /imu is regular: 10 / 100 Hz
+    # Only /imu is regular: 10 / 100 Hz = 0.1 s, raised to the shortest window, 1 s.
+    assert biqobs[1]["ws"] == 1.0
     assert biqobs[2]["ws"] == 1.0  # neither is regular
 
 

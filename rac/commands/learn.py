@@ -89,6 +89,12 @@ def register(sub: Any) -> None:
         help="do not correlate integrated signals I(M)",
     )
     parser.add_argument(
+        "--no-validate",
+        action="store_true",
+        help="keep learned rates and relations whose observers report a fault on the "
+        "training runs themselves (default: drop them, with a comment)",
+    )
+    parser.add_argument(
         "--properties", metavar="CSV", help="node samples: time,node,cpu,mem (cpu %%, mem bytes)"
     )
     parser.add_argument(
@@ -165,6 +171,7 @@ def run(args: argparse.Namespace) -> int:
         min_lift=args.min_lift,
         sigmas=args.sigmas,
         integrate=not args.no_integrated,
+        validate=not args.no_validate,
         name=args.name,
     )
     result = learn(recording, options, base=base, graph=graph, properties=properties)

@@ -23,6 +23,7 @@ from rac.learn.properties import PropertyStats
 from rac.learn.recording import Recording, TopicData
 from rac.learn.relations import LearnedRelation, group_relations
 from rac.learn.trends import topic_trends
+from rac.learn.validate import failures
 
 
 @dataclass(frozen=True, slots=True)
@@ -221,6 +222,7 @@ def _learn_relations(
     declared: set[str],
     declarable: set[str],
     undeclared: list[str],
+    regular: set[str],
 ) -> tuple[list[Related], list[LearnedRelation]]:
     """Qualitative correlations (Algorithms 16 and 17) between the declared topics, as
     ``relate`` declarations where both topics have a publisher."""
@@ -239,7 +241,15 @@ def _learn_relations(
             continue
         # A pair that only matched with one side integrated is declared with I() on that
         # side: its observer integrates it, so it reads "matched" on a healthy robot.
-        related.append(Related(*rel.sides(), comments=(rel.evidence(),)))
+        sides = rel.sides()
+        if any(s.integrated and s.topic not in regular for s in sides):
+            # A running sum of samples follows the integral only at a steady rate.
+            undeclared.append(
+                f"{rel.declaration()}: {rel.evidence()} (integrates a topic without a "
+                "steady rate, whose running sum does not follow the integral)"
+            )
+            continue
+        related.append(Related(*sides, comments=(rel.evidence(),)))
         kept.append(rel)
     return related, kept
 
@@ -273,7 +283,10 @@ def learn(
         notes.append(f"property samples of nodes not in the model, ignored: {', '.join(stray)}")
     nodes = [_limits(n, properties, options.sigmas) for n in nodes]
     declared = {t.name.value for t in learned_topics}
-    related, kept = _learn_relations(recording, options, declared, published & declared, undeclared)
+    regular = {t.name.value for t in learned_topics if t.regular}
+    related, kept = _learn_relations(
+        recording, options, declared, published & declared, undeclared, regular
+    )
     if base is not None:
         _note_dropped_relations(base, related, options, notes)
     needed: dict[str, list[str]] = {}
@@ -287,7 +300,7 @@ def learn(
         f"α {options.alpha:g}, Q {options.q:g}, C {options.occurrences}; "
         "review every learned value before use.",
     ]
-    trailing = ["learned but not declarable without publishers:", *undeclared] if undeclared else []
+    trailing = ["learned but not declared:", *undeclared] if undeclared else []
     model = Model(
         name=Name(_robot_name(recording, base, options)),
         hardware=tuple(hardware),
@@ -298,7 +311,60 @@ def learn(
         comments=(*header, *(base.comments if base is not None else ())),
         trailing_comments=tuple(trailing),
     )
+    if options.validate:
+        # Dropping a rate changes the windows of the relations on that topic: check again.
+        for _ in range(3):
+            checked = _without_false_alarms(model, recording, notes)
+            if checked is model:
+                break
+            model = checked
     return LearnResult(model, tuple(rates), tuple(kept), tuple(properties), tuple(notes), options)
+
+
+def _without_false_alarms(model: Model, recording: Recording, notes: list[str]) -> Model:
+    """Drop the learned rates and relations whose observers report a fault on the
+    fault-free training runs themselves (:mod:`rac.learn.validate`)."""
+    failed = failures(model, recording)
+    if not failed:
+        return model
+    topics = list(model.topics)
+    dropped: list[str] = []
+    bad_relations = set()
+    for f in failed:
+        where = f"{f.run} at {f.at:.1f} s"
+        if f.kind == "GObs":
+            t = topics[f.index]
+            why = f"rate {t.rate_hz:g} Hz dropped: its frequency observer read not ok on {where}"
+            topics[f.index] = replace(
+                t,
+                rate_hz=None,
+                rate_tolerance_hz=None,
+                window_s=None,
+                mismatch_threshold=None,
+                comments=(*t.comments, why),
+            )
+            dropped.append(f"{t.name.value} @ {t.rate_hz:g} Hz")
+        else:
+            r = model.related[f.index]
+            bad_relations.add(f.index)
+            dropped.append(f"{r.a.text} ~ {r.b.text}")
+    related = tuple(r for i, r in enumerate(model.related) if i not in bad_relations)
+    trailing = [
+        f"dropped: relate {model.related[f.index].a.text} ~ {model.related[f.index].b.text} "
+        f"(its observer read not matched on {f.run} at {f.at:.1f} s)"
+        for f in failed
+        if f.kind == "BiQObs"
+    ]
+    notes.append(
+        "observers that report a fault on the training runs themselves, dropped: "
+        + "; ".join(dropped)
+    )
+    return replace(
+        model,
+        topics=tuple(topics),
+        related=related,
+        trailing_comments=(*model.trailing_comments, *trailing),
+    )
 
 
 def _note_dropped_relations(

@@ -19,4 +19,5 @@ class LearnOptions:
     min_lift: float = DEFAULT_MIN_LIFT  # and their ratio beats chance by this much (0: off)
     sigmas: float = DEFAULT_SIGMAS  # property limit = mean + k·σ (at least the largest sample)
     integrate: bool = True  # also correlate integrated signals I(M) (Algorithm 16)
+    validate: bool = True  # drop observers that report a fault on the training runs
     name: str | None = None  # the robot's name when there is no base model

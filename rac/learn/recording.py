@@ -22,6 +22,7 @@ from rosbags.typesys.base import TypesysError
 
 from rac.errors import Diagnostic, RacError
 from rac.learn.fields import FieldSelector, FloatArray, extractor, layout_of
+from rac.observe.events import Message
 
 IntArray = npt.NDArray[np.int64]
 _WRAPPING = frozenset({"yaw", "roll"})  # derived angles unwrapped into continuous signals
@@ -241,3 +242,32 @@ def read_recording(
     paths: Sequence[str | Path], selector: FieldSelector, topics: frozenset[str] | None = None
 ) -> Recording:
     return merge_runs([read_run(p, selector, topics) for p in paths])
+
+
+def message_stream(
+    topics: Sequence[TopicData], origin: float, segment: int | None = None
+) -> list[Message]:
+    """The messages of ``topics`` in time order as observer inputs, times from ``origin``;
+    only those of run ``segment`` when given."""
+    parts = []
+    for t in topics:
+        keep = np.ones(t.count, dtype=bool) if segment is None else t.segments == segment
+        if keep.any():
+            parts.append((t, np.flatnonzero(keep)))
+    if not parts:
+        return []
+    times = np.concatenate([t.times[rows] for t, rows in parts]) - origin
+    which = np.concatenate(
+        [np.full(rows.size, i, dtype=np.int64) for i, (_, rows) in enumerate(parts)]
+    )
+    index = np.concatenate([rows for _, rows in parts])
+    order = np.argsort(times, kind="stable")
+    columns = [t.values.T.tolist() for t, _ in parts]  # per topic: the values of each message
+    out: list[Message] = []
+    append = out.append
+    for t, i, r in zip(
+        times[order].tolist(), which[order].tolist(), index[order].tolist(), strict=True
+    ):
+        topic = parts[i][0]
+        append(Message(t, topic.name, dict(zip(topic.fields, columns[i][r], strict=True))))
+    return out

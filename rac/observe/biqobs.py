@@ -3,15 +3,26 @@
 Parameters: ``topic1``, ``field1``, ``topic2``, ``field2``, ``mismatch_th`` θ (default 5);
 ``integral1``/``integral2`` (default false: that side is I(field), the running sum);
 ``ws`` ω (default 1.0 s), the regression window of both sides; ``slope1``/``slope2``
-(optional: β_p = slope, β_n = −slope for that side, else estimated online, see
+(optional: β_p = slope, β_n = −slope for that side, else the online limits of
 :mod:`rac.observe.qobs`).
 
 Each side is a :class:`~rac.observe.qobs.QObs` over its field.  The text's loop (lines 2-17)
 has no cadence; we check every ω/2 on a fixed grid that starts at the first time the
-observer sees (a ``feed`` or an ``advance``), comparing the latest trend of each side (line
-5) under the θ rule.  Grid instants up to an event's time are checked before the event is
-applied.  No check is made until both sides have a trend, so nothing is reported before.
-The text gives each side its own window (ω₁, ω₂); the model gives one, used by both.
+observer sees (a ``feed`` or an ``advance``).  Grid instants up to an event's time are
+checked before the event is applied.  No check is made until both sides have a trend, so
+nothing is reported before.  The text gives each side its own window (ω₁, ω₂); the model
+gives one, used by both.
+
+A check compares the two sides' trends at the same time, not their latest ones (line 5):
+a side's trend lags its samples by about 3ω/2 plus three sample intervals, so two topics at
+different rates lag differently, and comparing the latest trends would see every turn as a
+brief mismatch.  The side whose latest trend is later is taken back (``QObs.at``) to the
+time of the other side's latest trend.  The check is satisfied when either side admits the
+other's trend (:meth:`~rac.observe.qobs.TrendAt.admits`): equal, or its slope within a
+factor of two of the limit between the two.  Without that tolerance two healthy signals
+that turn at a rate close to a limit flip between "increasing" and "constant"
+independently and read as a sustained mismatch; a real divergence (one side clearly rising
+while the other is clearly flat or falling) still counts under the θ rule.
 """
 
 from __future__ import annotations
@@ -22,7 +33,7 @@ from rac.observe.base import Latch, Mismatch
 from rac.observe.events import Event, Message, Verdict
 from rac.observe.iobs import field_value, pair_needs
 from rac.observe.params import Params
-from rac.observe.qobs import QObs
+from rac.observe.qobs import QObs, TrendAt
 from rac.passes.observers import DEFAULT_MISMATCH_THRESHOLD, ObserverSpec
 
 DEFAULT_WS = 1.0
@@ -61,13 +72,27 @@ class BiQObs:
             self._next = t + self._step
         checks = 0
         while self._next <= t:
-            a, b = self.side1.latest, self.side2.latest
+            pair = self._aligned()
             # Without both trends, or once the counter can no longer move (the trends stay
             # as they are until the next event), the remaining instants change nothing.
-            if a is None or b is None or checks > self._mismatch.cap:
+            if pair is None or checks > self._mismatch.cap:
                 self._next += (math.floor((t - self._next) / self._step) + 1) * self._step
                 break
-            self._latch.report(self._next, self._mismatch.check(a == b), out)
+            a, b = pair
+            matched = a.admits(b.trend) or b.admits(a.trend)
+            self._latch.report(self._next, self._mismatch.check(matched), out)
             checks += 1
             self._next += self._step
         return out
+
+    def _aligned(self) -> tuple[TrendAt, TrendAt] | None:
+        """Both sides' trends at the same time: the later of the two is taken back to the
+        time of the other's latest trend (the two topics' trends lag by different amounts)."""
+        t1, t2 = self.side1.latest_t, self.side2.latest_t
+        if math.isnan(t1) or math.isnan(t2):
+            return None
+        when = min(t1, t2)
+        a, b = self.side1.at(when), self.side2.at(when)
+        if a is None or b is None:
+            return None
+        return a, b

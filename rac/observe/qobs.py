@@ -1,22 +1,35 @@
 """QObs, the qualitative trend of one signal (Algorithm 4 as the errata reads it).
 
-QObs is not an observer of its own in the model: BiQObs runs two of them.  It classifies
-trends exactly as ``racc learn`` does (:mod:`rac.learn.trends`), so that a relation learned
-from a recording holds at run time:
+QObs is not an observer of its own in the model: BiQObs runs two of them.
 
 - β, the slope of a sample, is the least-squares slope (Equation 5.4, errata)
   β = (nΣtv − ΣtΣv)/(nΣt² − (Σt)²) over the samples within ±ω/2 of it; the window belongs
   to its middle sample.  The second and third derivatives are the same regression over the
-  slopes, and over those again, with the same window.
+  slopes, and over those again, with the same window.  Each regression also gives the
+  standard error of its slope from its residuals, se = √(SSR/(n−2)/Sxx).
 - inc when β > β_p, dec when β < β_n; otherwise cons when the second and third derivatives
-  both lie in (β_n, β_p), else the previous trend (cons when there is none, as the learner
-  fills its leading undecided samples).
+  lie within their own limits, else the previous trend (cons when there is none).
 - The integrated side I(f) replaces each value by the running sum of the field's samples
   since the observer started (the learner's ``np.cumsum``); slopes do not see the offset.
-- β_p = ``slope`` and β_n = −``slope`` when the spec gives a slope; otherwise they are
-  estimated online as the learner defines them: β_p is the median of the positive slopes,
-  β_n the median of the negative ones, over the last :data:`HISTORY` slopes, and ±∞ when
-  there are none of that sign.  No trend is given before :data:`MIN_SLOPES` slopes.
+- β_p = ``slope`` and β_n = −``slope`` when the spec gives a slope (all three levels).
+  Otherwise, per sample and per level, β_p = max(:data:`SIGNIFICANCE`·se, floor) with that
+  level's se, β_n = −β_p; the floor is :data:`FLOOR_FRACTION` of the
+  :data:`FLOOR_QUANTILE` quantile of |β| over a history of |β| taken once per half window
+  (the last :data:`HISTORY`), the same for all levels.  No trend is given until the
+  history holds :data:`MIN_HISTORY` entries (10 s at ω = 1 s).
+
+This deviates from the learner (:mod:`rac.learn.trends`), whose β_p/β_n are the medians of
+the positive/negative slopes of a whole recording.  A running observer has no recording,
+and online medians failed on real-looking data: after a long still stretch they collapse to
+the noise level, so noise reads as a trend, and they sit at the typical turn rate, so a
+slip at a similar rate reads constant.  The significance test separates motion from noise;
+the floor keeps random-walk drift (an integrated noisy rate) and sub-1 % creep from counting
+as trends.
+
+``recent`` keeps the :class:`TrendAt` (time, trend, β, β_p) of the last 2ω and ``at(t)``
+looks one up, so that BiQObs can compare two sides at the same time;
+:meth:`TrendAt.admits` is its tolerance rule (a slope within a factor :data:`MARGIN` of
+the limit between two trends could be either).
 
 Timing: a slope is known once a sample beyond its window's end has come, and each of the
 three regressions waits for that, so the trend of the sample at time c is known about 3ω/2
@@ -33,6 +46,7 @@ from __future__ import annotations
 import bisect
 import math
 from collections import deque
+from dataclasses import dataclass
 from enum import IntEnum
 
 
@@ -44,8 +58,12 @@ class Trend(IntEnum):
     INC = 2
 
 
-HISTORY = 4096  # slopes kept for the online limits
-MIN_SLOPES = 50  # slopes seen before the online limits give a trend
+SIGNIFICANCE = 3.0  # a slope is a trend when it exceeds this many standard errors
+FLOOR_FRACTION = 0.05  # ... and this fraction of the signal's typical fast slope
+FLOOR_QUANTILE = 0.95  # the typical fast slope: this quantile of |β| over the history
+HISTORY = 2000  # |β| samples kept, one per half window (about 17 minutes at ω = 1 s)
+MIN_HISTORY = 20  # samples before the first trend (10 s at ω = 1 s)
+MARGIN = 2.0  # how far from a limit a slope must lie to be clearly on one side of it
 REBASE_EVERY = 1024
 
 
@@ -76,15 +94,16 @@ class SlidingSlope:
         self._st = self._stt = self._sv = self._stv = self._svv = 0.0
         self._adds = 0
 
-    def push(self, t: float, v: float) -> list[tuple[float, float]]:
-        """Add a sample; return (time, slope) for every sample whose window it closes."""
+    def push(self, t: float, v: float) -> list[tuple[float, float, float]]:
+        """Add a sample; return (time, slope, standard error of the slope) for every sample
+        whose window it closes."""
         out = []
         while self._centres and t > self._centres[0] + self.half:
             centre = self._centres.popleft()
             low = centre - self.half
             while self._win[0][0] < low:
                 self._remove(*self._win.popleft())
-            out.append((centre, self._slope()))
+            out.append((centre, *self._slope()))
         if self._adds >= REBASE_EVERY or not self._win:
             self._rebase(t, v)
         self._win.append((t, v))
@@ -119,51 +138,67 @@ class SlidingSlope:
             self._add(ts, vs)
         self._adds = 0
 
-    def _slope(self) -> float:
+    def _slope(self) -> tuple[float, float]:
+        """The least-squares slope of the window and its standard error (0 when flat)."""
         n = self._n
         den = n * self._stt - self._st * self._st
         if n < 2 or den <= 1e-12 * n * self._stt:
-            return 0.0
+            return 0.0, 0.0
         num = n * self._stv - self._st * self._sv
         # Running sums leave rounding residue where the signal is flat: that is no trend.
-        if abs(num) <= 1e-10 * n * math.sqrt(self._stt * self._svv):
-            return 0.0
-        return num / den
+        if abs(num) <= 1e-10 * n * math.sqrt(max(self._stt * self._svv, 0.0)):
+            return 0.0, 0.0
+        slope = num / den
+        if n < 3:
+            return slope, 0.0
+        # Residual sum of squares of the fit, from the same sums: n·SSR = n·Syy − β·num.
+        syy = n * self._svv - self._sv * self._sv
+        ssr = max(syy - slope * num, 0.0) / n
+        return slope, math.sqrt(ssr / (n - 2) / (den / n))
 
 
-class _Median:
-    """The median of the positive (negative) numbers among the last ``size`` pushed."""
+class _Quantile:
+    """A quantile of the last ``size`` numbers pushed (kept sorted; pushes are rare)."""
 
-    def __init__(self, size: int) -> None:
+    def __init__(self, size: int, q: float) -> None:
         self._order: deque[float] = deque()
+        self._sorted: list[float] = []
         self._size = size
-        self.positive: list[float] = []  # sorted
-        self.negative: list[float] = []  # sorted
-        self.seen = 0
+        self._q = q
+
+    def __len__(self) -> int:
+        return len(self._order)
 
     def push(self, x: float) -> None:
-        self.seen += 1
         self._order.append(x)
-        self._insert(x)
+        bisect.insort(self._sorted, x)
         if len(self._order) > self._size:
-            old = self._order.popleft()
-            side = self.positive if old > 0 else self.negative if old < 0 else None
-            if side is not None:
-                del side[bisect.bisect_left(side, old)]
+            del self._sorted[bisect.bisect_left(self._sorted, self._order.popleft())]
 
-    def _insert(self, x: float) -> None:
-        if x > 0:
-            bisect.insort(self.positive, x)
-        elif x < 0:
-            bisect.insort(self.negative, x)
+    def value(self) -> float:
+        return self._sorted[min(len(self._sorted) - 1, int(self._q * len(self._sorted)))]
 
-    @staticmethod
-    def median(values: list[float], empty: float) -> float:
-        n = len(values)
-        if n == 0:
-            return empty
-        mid = n // 2
-        return values[mid] if n % 2 else (values[mid - 1] + values[mid]) / 2
+
+@dataclass(frozen=True, slots=True)
+class TrendAt:
+    """The trend of the sample at time ``t``, its slope β and limit β_p (β_n = −β_p)."""
+
+    t: float
+    trend: Trend
+    slope: float
+    limit: float
+
+    def admits(self, trend: Trend) -> bool:
+        """Could this trend as well have been ``trend``?  True when it is, or when the slope
+        lies within a factor :data:`MARGIN` of the limit between the two: a slope just above
+        β_p is as much constant as increasing (see BiQObs)."""
+        if trend == self.trend:
+            return True
+        if trend == Trend.INC:
+            return self.slope > self.limit / MARGIN
+        if trend == Trend.DEC:
+            return self.slope < -self.limit / MARGIN
+        return abs(self.slope) <= self.limit * MARGIN
 
 
 class QObs:
@@ -175,21 +210,43 @@ class QObs:
         self.slope = slope
         half = ws / 2
         self._levels = (SlidingSlope(half), SlidingSlope(half), SlidingSlope(half))
-        self._s1: deque[float] = deque()  # first and second derivatives waiting for the third
+        # First and second derivatives (value, standard error) waiting for the third.
+        self._s1: deque[tuple[float, float]] = deque()
         self._s2: deque[float] = deque()
-        self._limits = _Median(HISTORY)
         self._sum = 0.0
         self.latest: Trend | None = None  # Θ_p: the last trend given
         self.latest_t = math.nan  # the time that trend belongs to
+        self.latest_slope = math.nan  # β of that sample
+        self.latest_limit = math.nan  # β_p of that sample (β_n = −β_p)
+        self.recent: deque[TrendAt] = deque()  # the trends of the last 2ω, oldest first
+        self._scale = _Quantile(HISTORY, FLOOR_QUANTILE)
+        self._scale_due = -math.inf  # when the next |β| joins the history
+
+    def floor(self) -> float | None:
+        """The smallest limit: a fraction of the typical fast slope; None while unknown."""
+        if len(self._scale) < MIN_HISTORY:
+            return None
+        return FLOOR_FRACTION * self._scale.value()
+
+    def limit(self, se: float, floor: float) -> float:
+        """β_p for a slope with standard error ``se``: the given slope, else the larger of
+        SIGNIFICANCE·se and the floor."""
+        return self.slope if self.slope is not None else max(SIGNIFICANCE * se, floor)
 
     def limits(self) -> tuple[float, float] | None:
-        """(β_n, β_p), or None while too few slopes have been seen to estimate them."""
-        if self.slope is not None:
-            return -self.slope, self.slope
-        if self._limits.seen < MIN_SLOPES:
+        """(β_n, β_p) of the latest trend, or None before the first."""
+        if self.latest is None:
             return None
-        m = self._limits
-        return m.median(m.negative, -math.inf), m.median(m.positive, math.inf)
+        return -self.latest_limit, self.latest_limit
+
+    def at(self, t: float) -> TrendAt | None:
+        """The trend of the last sample at or before ``t`` among the recent ones."""
+        found = None
+        for state in self.recent:
+            if state.t > t:
+                break
+            found = state
+        return found
 
     def push(self, t: float, v: float) -> list[tuple[float, Trend]]:
         """Add a sample of the field; return the trends it decides, (time, trend) in order."""
@@ -198,27 +255,36 @@ class QObs:
             v = self._sum
         l1, l2, l3 = self._levels
         out = []
-        for c1, s1 in l1.push(t, v):
-            self._s1.append(s1)
-            self._limits.push(s1)
-            for c2, s2 in l2.push(c1, s1):
+        for c1, s1, e1 in l1.push(t, v):
+            if c1 >= self._scale_due:
+                self._scale.push(abs(s1))
+                self._scale_due = c1 + self.ws / 2
+            self._s1.append((s1, e1))
+            for c2, s2, _ in l2.push(c1, s1):
                 self._s2.append(s2)
-                for c3, s3 in l3.push(c2, s2):
-                    trend = self._classify(self._s1.popleft(), self._s2.popleft(), s3)
-                    if trend is not None:
-                        self.latest, self.latest_t = trend, c3
-                        out.append((c3, trend))
+                for c3, s3, _ in l3.push(c2, s2):
+                    slope, se = self._s1.popleft()
+                    second = self._s2.popleft()
+                    floor = self.floor()
+                    if floor is None and self.slope is None:
+                        continue
+                    floor = floor or 0.0
+                    high = self.limit(se, floor)
+                    # Algorithm 4 holds the derivatives to the slope's own limits.
+                    trend = self._classify(slope, high, second, high, s3, high)
+                    self.latest, self.latest_t = trend, c3
+                    self.latest_slope, self.latest_limit = slope, high
+                    self.recent.append(TrendAt(c3, trend, slope, high))
+                    while self.recent[0].t < c3 - 2 * self.ws:
+                        self.recent.popleft()
+                    out.append((c3, trend))
         return out
 
-    def _classify(self, s1: float, s2: float, s3: float) -> Trend | None:
-        limits = self.limits()
-        if limits is None:
-            return None
-        low, high = limits
-        if s1 > high:
+    def _classify(self, s1: float, l1: float, s2: float, l2: float, s3: float, l3: float) -> Trend:
+        if s1 > l1:
             return Trend.INC
-        if s1 < low:
+        if s1 < -l1:
             return Trend.DEC
-        if low < s2 < high and low < s3 < high:
+        if -l2 <= s2 <= l2 and -l3 <= s3 <= l3:
             return Trend.CONS
         return self.latest if self.latest is not None else Trend.CONS

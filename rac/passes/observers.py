@@ -14,7 +14,14 @@ from rac.passes.rbm import field_atom, ok
 
 DEFAULT_WINDOW_OCCURRENCES = 10  # ω = c / freq with c = 10 (Equation 5.3)
 DEFAULT_MISMATCH_THRESHOLD = 5
+# A BiQObs checks every half window (0.5 s at ω = 1 s): three net mismatches are two seconds
+# of trends that disagree, long enough to ride out a manoeuvre's change and short enough to
+# see a slip that shows only while the robot drives straight (docs/observers.md).
+BIQOBS_MISMATCH_THRESHOLD = 3
 DEFAULT_PAIR_WINDOW_S = 1.0  # a related pair of two irregular topics
+# The shortest trend window: a qualitative trend of a physical signal over less than a second
+# is its noise, and θ checks (one per half window) would then last only a fraction of one.
+MIN_PAIR_WINDOW_S = 1.0
 DEFAULT_RATE_TOLERANCE = 0.1  # ±10 % of the rate when the model gives none
 BOARD_TOPIC = "/board_measurements"
 DIAGNOSTICS_TOPIC = "/diagnostics"
@@ -133,7 +140,8 @@ def biqobs_params(
     and θ.
 
     Both sides' trends come from one window so that they are comparable: ω = c / freq
-    (Equation 5.3) of the slower regular topic, 1 s when neither topic has a rate.
+    (Equation 5.3) of the slower regular topic, 1 s when neither topic has a rate, and
+    never less than :data:`MIN_PAIR_WINDOW_S`.
     """
     rates = [
         t.rate_hz
@@ -141,6 +149,7 @@ def biqobs_params(
         if t is not None and t.rate_hz is not None
     ]
     window = DEFAULT_WINDOW_OCCURRENCES / min(rates) if rates else DEFAULT_PAIR_WINDOW_S
+    window = max(window, MIN_PAIR_WINDOW_S)
     return (
         ("topic1", a.topic),
         ("field1", a.field),
@@ -149,7 +158,7 @@ def biqobs_params(
         ("field2", b.field),
         ("integral2", b.integrated),
         ("ws", _round(window)),
-        ("mismatch_th", DEFAULT_MISMATCH_THRESHOLD),
+        ("mismatch_th", BIQOBS_MISMATCH_THRESHOLD),
     )
 
 

@@ -1,0 +1,158 @@
+"""``racc replay``: a recording through the observers and the diagnosis engine."""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+import textwrap
+import time
+from pathlib import Path
+from typing import Any
+
+from rac.commands.common import add_command, load_and_compile, write_file_atomically
+
+_DURATION = re.compile(r"\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*(ms|s)?\s*")
+MAX_PERIOD_S = 3600.0
+
+
+def seconds(text: str) -> float:
+    """argparse type: ``1s``, ``500ms`` or a plain number of seconds, above 0."""
+    match = _DURATION.fullmatch(text)
+    if match is None:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a duration such as 1s, 500ms or 2.5")
+    value = float(match[1]) / (1000.0 if match[2] == "ms" else 1.0)
+    if not 0 < value <= MAX_PERIOD_S:
+        raise argparse.ArgumentTypeError(f"'{text}' must be above 0 and at most {MAX_PERIOD_S:g} s")
+    return value
+
+
+def card(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if not 1 <= value <= 10:
+        raise argparse.ArgumentTypeError("must be from 1 to 10")
+    return value
+
+
+def add_replay_options(parser: argparse.ArgumentParser) -> None:
+    """Options replay and evaluate share."""
+    parser.add_argument(
+        "--diagnose-every",
+        metavar="PERIOD",
+        type=seconds,
+        default=1.0,
+        help="diagnose Θ this often, e.g. 1s or 500ms (default: 1s)",
+    )
+    parser.add_argument(
+        "--max-card",
+        metavar="K",
+        type=card,
+        default=3,
+        help="search diagnoses of at most K faulty components (default: 3)",
+    )
+
+
+def register(sub: Any) -> None:
+    parser = add_command(
+        sub,
+        "replay",
+        "replay a recording through the observers and the diagnosis engine",
+        textwrap.fill(
+            "Feed a recording (a ROS 1 .bag or a ROS 2 bag directory) through every observer "
+            "MODEL compiles to, in timestamp order; collect their observations as Algorithm 10 "
+            "does and diagnose them every PERIOD.  Node liveness, CPU and memory come from the "
+            "properties CSV (time,node,cpu,mem; by default RUN.properties.csv beside the run), "
+            "/diagnostics from the recording.  Several RUNs are replayed back to back.  stdout "
+            "summarises each episode (when a fault appeared, what was diagnosed, when it "
+            "cleared); -o writes the timeline as JSON lines, --plot draws it (needs the plot "
+            "extra: pip install 'racc[plot]').  See docs/evaluation.md.",
+            88,
+        ),
+        "  racc replay models/pioneer.ram run.bag\n"
+        "  racc replay models/pioneer.ram run.bag --properties run.csv -o timeline.jsonl\n"
+        "  racc replay learned.ram run1.bag run2.bag --diagnose-every 500ms --plot run.png",
+    )
+    parser.add_argument("model", metavar="MODEL", help="a .ram file or a ram/1 .json")
+    parser.add_argument("runs", metavar="RUN", nargs="+", help="recordings to replay")
+    parser.add_argument(
+        "--properties",
+        metavar="CSV",
+        action="append",
+        default=[],
+        help="a properties CSV, one per RUN in order (default: RUN.properties.csv if present)",
+    )
+    parser.add_argument(
+        "--truth",
+        metavar="FAULTS",
+        help="the injected faults (default: RUN.faults.yaml beside a single RUN, if present)",
+    )
+    add_replay_options(parser)
+    parser.add_argument("-o", "--output", metavar="FILE", help="write the timeline (JSON lines)")
+    parser.add_argument("--plot", metavar="PNG", help="draw the timeline")
+    parser.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+    parser.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from rac.evaluate.score import score_run
+    from rac.replay.engine import ReplayOptions, replay
+    from rac.replay.load import load_runs, needs_of, properties_for, replayable, truth_for
+    from rac.replay.plot import draw
+    from rac.replay.timeline import summary_lines, to_jsonl
+
+    model = replayable(load_and_compile(args.model, quiet=args.quiet))
+    truth = truth_for(args.runs, args.truth)
+    started = time.perf_counter()
+    inputs = load_runs(args.runs, properties_for(args.runs, args.properties), needs_of([model]))
+    if not args.quiet:
+        for note in inputs.notes:
+            print(f"note: {note}", file=sys.stderr)
+    options = ReplayOptions(diagnose_every=args.diagnose_every, max_card=args.max_card)
+    progress = _Progress(inputs.duration) if not args.quiet and sys.stderr.isatty() else None
+    timeline = replay(model.specs, model.theory, inputs.events, inputs.duration, options, progress)
+    if progress is not None:
+        progress.done()
+    elapsed = time.perf_counter() - started
+    if args.output:
+        write_file_atomically(Path(args.output), to_jsonl(timeline))
+    if args.plot:
+        title = f"{model.name}: {inputs.path}"
+        draw(timeline, truth.faults if truth else (), Path(args.plot), title)
+    if args.quiet:
+        return 0
+    speed = inputs.duration / elapsed if elapsed > 0 else float("inf")
+    print(
+        f"replayed {inputs.path}: {inputs.messages} messages, {inputs.duration:.1f} s, through "
+        f"{len(model.specs)} observers in {elapsed:.1f} s ({speed:.0f}x real time)"
+    )
+    lines = summary_lines(timeline)
+    print("\n".join(lines) if lines else "no fault diagnosed: the observations stayed consistent")
+    if truth is not None:
+        score = score_run(timeline, truth.faults)
+        for o in score.outcomes:
+            f = o.fault
+            what = f"reported at {o.first:.1f} s" if o.first is not None else "NOT reported"
+            print(f"fault {f.kind} {f.target} {f.start:g}-{f.end:g} s: {what}")
+        for fp in score.false_positives:
+            print(f"false positive at {fp.episode.start:.1f} s ({fp.kind})")
+    return 0
+
+
+class _Progress:
+    """A one-line progress indicator on a terminal."""
+
+    def __init__(self, total: float) -> None:
+        self.total = max(total, 1e-9)
+        self.shown = -1
+
+    def __call__(self, t: float) -> None:
+        percent = int(100 * t / self.total)
+        if percent != self.shown:
+            self.shown = percent
+            print(f"\rreplaying: {percent:3d} %", end="", file=sys.stderr, flush=True)
+
+    def done(self) -> None:
+        print("\r" + " " * 20 + "\r", end="", file=sys.stderr, flush=True)

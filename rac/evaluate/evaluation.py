@@ -1,0 +1,110 @@
+"""``racc evaluate``: candidate models against test runs with known faults (§10.2).
+
+Every model replays every test run; each run is scored against its ground truth
+(:mod:`rac.evaluate.score`).  The result holds what Tables 10.1 and 10.2 and §10.2.3's
+per-fault table show, and the comparison of the best model with the worst.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+from rac.evaluate.score import DEFAULT_GRACE_S, FalsePositive, FaultOutcome, score_run
+from rac.replay.engine import ReplayOptions, replay
+from rac.replay.load import Replayable
+from rac.replay.sources import RunInputs
+from rac.synth.truth import InjectedFault
+
+KIND_ORDER = ("slip", "cpu", "mem", "freq", "crash")
+
+
+@dataclass(frozen=True, slots=True)
+class Candidate:
+    """A model under evaluation; ``q``/``alpha`` when it was learned in the grid."""
+
+    label: str  # M1, M2, … or the file name
+    source: str
+    model: Replayable
+    q: float | None = None
+    alpha: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class TestRun:
+    path: str
+    inputs: RunInputs
+    faults: tuple[InjectedFault, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class ModelResult:
+    candidate: Candidate
+    observers: dict[str, int]  # kind -> count (Table 10.1)
+    outcomes: tuple[tuple[str, FaultOutcome], ...]  # (run, outcome), runs in order
+    false_positives: tuple[tuple[str, FalsePositive], ...]
+
+    @property
+    def vector(self) -> tuple[int, ...]:
+        """1 for each correctly reported fault, 0 for each missed one (§10.2.3)."""
+        return tuple(int(o.reported) for _, o in self.outcomes)
+
+    def count(self, what: str, kind: str) -> int:
+        if what == "CR":
+            return sum(o.reported for _, o in self.outcomes if o.fault.kind == kind)
+        if what == "FN":
+            return sum(not o.reported for _, o in self.outcomes if o.fault.kind == kind)
+        return sum(1 for _, fp in self.false_positives if fp.kind == kind)
+
+
+@dataclass(frozen=True, slots=True)
+class Evaluation:
+    results: tuple[ModelResult, ...]
+    runs: tuple[TestRun, ...]
+    grace: float
+
+    @property
+    def kinds(self) -> tuple[str, ...]:
+        """Fault kinds in the thesis's order, then any others, then ``none`` if it occurs."""
+        present = {f.kind for r in self.runs for f in r.faults}
+        kinds = [k for k in KIND_ORDER if k in present]
+        kinds += sorted(present - set(KIND_ORDER))
+        if any(fp.kind not in present for m in self.results for _, fp in m.false_positives):
+            kinds.append("none")
+        return tuple(kinds)
+
+
+def observer_counts(model: Replayable) -> dict[str, int]:
+    counts: dict[str, int] = {}
+    for spec in model.specs:
+        key = spec.kind
+        if spec.kind == "PObs":
+            prop = dict(spec.params).get("property")
+            key = f"PObs_{prop}"
+        counts[key] = counts.get(key, 0) + 1
+    return counts
+
+
+def evaluate(
+    candidates: Sequence[Candidate],
+    runs: Sequence[TestRun],
+    options: ReplayOptions | None = None,
+    grace: float = DEFAULT_GRACE_S,
+    progress: Callable[[str], None] | None = None,
+) -> Evaluation:
+    options = options or ReplayOptions()
+    results = []
+    for c in candidates:
+        outcomes: list[tuple[str, FaultOutcome]] = []
+        fps: list[tuple[str, FalsePositive]] = []
+        for r in runs:
+            if progress is not None:
+                progress(f"{c.label} on {r.path}")
+            timeline = replay(
+                c.model.specs, c.model.theory, r.inputs.events, r.inputs.duration, options
+            )
+            score = score_run(timeline, r.faults, grace)
+            outcomes.extend((r.path, o) for o in score.outcomes)
+            fps.extend((r.path, fp) for fp in score.false_positives)
+        results.append(ModelResult(c, observer_counts(c.model), tuple(outcomes), tuple(fps)))
+    return Evaluation(tuple(results), tuple(runs), grace)

@@ -1,0 +1,97 @@
+"""What replay and evaluate load: a model with observers, and runs with their inputs."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from rac.diagnosis.theory import Theory
+from rac.errors import Diagnostic, RacError
+from rac.observe.bank import ObserverBank
+from rac.passes.observers import ObserverSpec
+from rac.pipeline import Compiled
+from rac.replay.sources import Needs, RunInputs, load_run, properties_beside, shifted
+from rac.synth.truth import GroundTruth, load_truth, truth_path
+
+
+@dataclass(frozen=True, slots=True)
+class Replayable:
+    """A compiled model as replay needs it: its observers and its diagnosis theory."""
+
+    name: str
+    specs: tuple[ObserverSpec, ...]
+    theory: Theory
+
+
+def replayable(compiled: Compiled, name: str | None = None) -> Replayable:
+    theory = Theory(
+        clauses=compiled.rbm,
+        props=compiled.props,
+        components=compiled.components,
+        model=compiled.model,
+    )
+    return Replayable(name or compiled.model.name.value, compiled.observers, theory)
+
+
+def needs_of(models: Sequence[Replayable]) -> Needs:
+    """The union of what the models' observers read from a recording."""
+    fields: dict[str, set[str]] = {}
+    nodes: set[str] = set()
+    diagnostics = False
+    for m in models:
+        bank = ObserverBank(m.specs)
+        for topic, wanted in bank.topic_fields().items():
+            fields.setdefault(topic, set()).update(wanted)
+        nodes.update(bank.nodes)
+        nodes.update(n for n, _ in bank.properties)
+        diagnostics = diagnostics or bool(bank.devices)
+    return Needs({t: frozenset(f) for t, f in fields.items()}, frozenset(nodes), diagnostics)
+
+
+def properties_for(runs: Sequence[str], given: Sequence[str]) -> list[str | None]:
+    """One properties CSV per run: as given (in order), else the one beside the run if any."""
+    if given and len(given) != len(runs):
+        message = (
+            f"{len(given)} --properties for {len(runs)} runs: give one per run, in the runs' "
+            "order, or none (then RUN.properties.csv beside each run is used when it exists)"
+        )
+        raise RacError([Diagnostic("RAC051", message)])
+    if given:
+        return list(given)
+    out: list[str | None] = []
+    for run in runs:
+        beside = properties_beside(run)
+        out.append(str(beside) if beside.is_file() else None)
+    return out
+
+
+def load_runs(runs: Sequence[str], properties: Sequence[str | None], needs: Needs) -> RunInputs:
+    """Several runs as one recording, back to back (as learning merges them)."""
+    parts = [load_run(r, needs, p) for r, p in zip(runs, properties, strict=True)]
+    if len(parts) == 1:
+        return parts[0]
+    events = []
+    offset = 0.0
+    for part in parts:
+        events.extend(shifted(part.events, offset))
+        offset += part.duration
+    return RunInputs(
+        path=", ".join(p.path for p in parts),
+        start=parts[0].start,
+        duration=offset,
+        events=tuple(events),
+        messages=sum(p.messages for p in parts),
+        notes=tuple(n for p in parts for n in p.notes),
+    )
+
+
+def truth_for(runs: Sequence[str], explicit: str | None) -> GroundTruth | None:
+    """The injected faults: the file given, else RUN.faults.yaml beside a single RUN."""
+    if explicit is not None:
+        return load_truth(explicit)
+    if len(runs) == 1:
+        path = truth_path(Path(runs[0]))
+        if path.is_file():
+            return load_truth(path)
+    return None

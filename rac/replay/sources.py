@@ -1,0 +1,227 @@
+"""Recorded runs as observer inputs: a bag's messages and /diagnostics, a properties CSV.
+
+The loading layer of replay: it reads files and turns them into the time-ordered events
+the observer core takes, with times in seconds from the start of the recording.
+
+- Topic messages come from the bag through rosbags (ROS 1 ``.bag``, ROS 2 directories),
+  with the fields the observers need (derived ``yaw``/``pitch``/``roll`` included).
+- ``/diagnostics`` statuses come from the bag when the model has diagnostic observers.
+- The properties CSV (``time,node,cpu,mem``, the file ``racc synth`` writes and ``racc
+  learn`` reads) gives CPU and memory samples, and node liveness: the CSV is taken to
+  sample every node every period P (the median spacing of its sample times); at each tick
+  of P a node with a sample in the last 1.5·P is running, otherwise not.  So a node that
+  leaves no samples for θ periods reads not running, as the node observer's θ allows.
+  Its ``time`` is the bag's clock in seconds, or seconds from the recording's start when
+  the file's first time is smaller than the bag's start.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from rac.errors import Diagnostic, RacError
+from rac.learn.fields import FieldSelector
+from rac.learn.recording import Run, message_stream, read_run
+from rac.loader import read_text
+from rac.observe.events import DeviceStatus, Event, NodeSample, PropertySample
+
+DIAGNOSTICS_TOPIC = "/diagnostics"
+LIVENESS_SLACK = 1.5  # a node is running when it has a sample within this many periods
+CSV_COLUMNS = ("time", "node", "cpu", "mem")
+
+
+@dataclass(frozen=True, slots=True)
+class Needs:
+    """What a model's observers take from a recording."""
+
+    topic_fields: Mapping[str, frozenset[str]]  # every model topic -> fields observers read
+    nodes: frozenset[str]  # nodes with a node or property observer
+    diagnostics: bool  # any diagnostic observer
+
+
+@dataclass(frozen=True, slots=True)
+class RunInputs:
+    path: str
+    start: float  # the recording's start on its own clock, seconds
+    duration: float  # seconds from the start to the last input
+    events: tuple[Event, ...]  # in time order, times from the start
+    messages: int  # topic messages among the events
+    notes: tuple[str, ...]
+
+
+def properties_beside(run: str | Path) -> Path:
+    """``run.bag`` -> ``run.properties.csv``; ``run/`` -> ``run.properties.csv`` beside it."""
+    p = Path(run)
+    name = p.name.rstrip("/")
+    stem = name[: -len(".bag")] if name.endswith(".bag") else name
+    return p.with_name(stem + ".properties.csv")
+
+
+def load_run(path: str, needs: Needs, properties: str | None) -> RunInputs:
+    """Every input a model's observers take from one recorded run."""
+    run = _read_topics(path, needs)
+    notes: list[str] = []
+    events: list[Event] = list(message_stream(run.topics, run.start))
+    messages = len(events)
+    if needs.diagnostics:
+        statuses = list(_diagnostics(path, run.start))
+        if not statuses:
+            notes.append(
+                f"{path}: no {DIAGNOSTICS_TOPIC} messages; diagnostic observers stay silent"
+            )
+        events.extend(statuses)
+    if properties is not None:
+        events.extend(_properties(properties, run.start, needs.nodes))
+    elif needs.nodes:
+        notes.append(
+            f"{path}: no properties CSV; node and property observers stay silent "
+            "(pass --properties)"
+        )
+    events.sort(key=lambda e: e.t)
+    duration = max((e.t for e in events), default=0.0)
+    return RunInputs(path, run.start, duration, tuple(events), messages, tuple(notes))
+
+
+def shifted(events: Iterable[Event], by: float) -> list[Event]:
+    """The same events ``by`` seconds later (runs replayed back to back)."""
+    import dataclasses
+
+    return [dataclasses.replace(e, t=e.t + by) for e in events]
+
+
+def _read_topics(path: str, needs: Needs) -> Run:
+    selector = FieldSelector(declared=dict(needs.topic_fields))
+    try:
+        return read_run(path, selector, frozenset(needs.topic_fields))
+    except RacError as err:
+        if any("holds no messages" in d.message for d in err.diagnostics):
+            topics = ", ".join(sorted(needs.topic_fields)) or "(none)"
+            message = f"{path}: the recording holds none of the model's topics ({topics})"
+            hint = "replay the recording with the model of the robot that recorded it"
+            raise RacError([Diagnostic("RAC080", message, hint=hint)]) from None
+        raise
+
+
+def _diagnostics(path: str, start: float) -> Iterable[DeviceStatus]:
+    """The statuses on /diagnostics (diagnostic_msgs/DiagnosticArray) of a recording."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    p = Path(path)
+    store = get_typestore(Stores.ROS2_HUMBLE if p.is_dir() else Stores.ROS1_NOETIC)
+    out: list[DeviceStatus] = []
+    try:
+        with AnyReader([p], default_typestore=store) as reader:
+            conns = [c for c in reader.connections if c.topic == DIAGNOSTICS_TOPIC]
+            for conn, stamp, raw in reader.messages(connections=conns):
+                msg = reader.deserialize(raw, conn.msgtype)
+                t = stamp * 1e-9 - start
+                for status in getattr(msg, "status", ()):
+                    out.append(
+                        DeviceStatus(
+                            t, str(status.name), str(status.hardware_id), _level(status.level)
+                        )
+                    )
+    except Exception as err:  # rosbags raises many kinds on damaged files
+        message = f"{path}: cannot read {DIAGNOSTICS_TOPIC}: {err or type(err).__name__}"
+        raise RacError([Diagnostic("RAC080", message)]) from None
+    return out
+
+
+def _level(value: object) -> int:
+    if isinstance(value, bytes | bytearray):
+        return value[0] if value else 0
+    return int(str(value))
+
+
+def _properties(path: str, start: float, nodes: frozenset[str]) -> list[Event]:
+    rows = parse_samples(read_text(path), path)
+    if not rows:
+        return []
+    relative = rows[0][0] < start
+    samples = [(t if relative else t - start, n, c, m) for t, n, c, m in rows]
+    events: list[Event] = []
+    for t, node, cpu, mem in samples:
+        if cpu is not None:
+            events.append(PropertySample(t, node, "cpu", cpu))
+        if mem is not None:
+            events.append(PropertySample(t, node, "mem", mem))
+    events.extend(liveness(samples, nodes))
+    return events
+
+
+def liveness(
+    samples: Sequence[tuple[float, str, float | None, float | None]], nodes: frozenset[str]
+) -> list[NodeSample]:
+    """One liveness sample per node and period (see the module's docstring)."""
+    times = sorted({s[0] for s in samples})
+    if len(times) < 2 or not nodes:
+        return []
+    period = float(np.median(np.diff(times)))
+    if not period > 0:
+        return []
+    seen: dict[str, list[float]] = {}
+    for t, node, _, _ in samples:
+        seen.setdefault(node, []).append(t)
+    arrays = {n: np.asarray(sorted(ts)) for n, ts in seen.items()}
+    ticks = np.arange(times[0], times[-1] + period / 2, period)
+    out: list[NodeSample] = []
+    for node in sorted(nodes):
+        ts = arrays.get(node, np.empty(0))
+        # Samples in (tick − slack·P, tick]: counts from two sorted searches.
+        hi = np.searchsorted(ts, ticks + 1e-9, side="right")
+        lo = np.searchsorted(ts, ticks - LIVENESS_SLACK * period, side="right")
+        alive = (hi - lo) > 0
+        out.extend(
+            NodeSample(float(t), node, bool(a))
+            for t, a in zip(ticks.tolist(), alive.tolist(), strict=True)
+        )
+    return out
+
+
+def parse_samples(text: str, path: str) -> list[tuple[float, str, float | None, float | None]]:
+    """``time,node,cpu,mem`` rows, sorted by time; empty cpu/mem cells are missing samples."""
+
+    def bad(line: int, why: str) -> RacError:
+        hint = f"the file needs the header {','.join(CSV_COLUMNS)} and one sample per line"
+        return RacError([Diagnostic("RAC082", f"{path}:{line}: {why}", hint=hint)])
+
+    reader = csv.reader(io.StringIO(text))
+    header = next(reader, None)
+    if header is None or [h.strip() for h in header] != list(CSV_COLUMNS):
+        raise bad(1, f"expected the header '{','.join(CSV_COLUMNS)}'")
+    rows: list[tuple[float, str, float | None, float | None]] = []
+    for line, row in enumerate(reader, start=2):
+        if not row or all(not cell.strip() for cell in row):
+            continue
+        if len(row) != len(CSV_COLUMNS):
+            raise bad(line, f"expected {len(CSV_COLUMNS)} columns, found {len(row)}")
+        node = row[1].strip().removeprefix("/")
+        if not node:
+            raise bad(line, "empty node name")
+        t = _number(row[0], "time", line, bad)
+        if t is None:
+            raise bad(line, "empty time")
+        rows.append((t, node, _number(row[2], "cpu", line, bad), _number(row[3], "mem", line, bad)))
+    rows.sort(key=lambda r: r[0])
+    return rows
+
+
+def _number(cell: str, what: str, line: int, bad: object) -> float | None:
+    if not cell.strip():
+        return None
+    try:
+        value = float(cell)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value) or value < 0:
+        assert callable(bad)
+        raise bad(line, f"{what} must be a finite number >= 0, not '{cell.strip()}'")
+    return value
