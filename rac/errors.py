@@ -28,6 +28,7 @@ class Span:
 class Severity(StrEnum):
     ERROR = "error"
     WARNING = "warning"
+    NOTE = "note"  # information the engineer should know; never stops anything
 
 
 @dataclass(frozen=True, slots=True)
@@ -142,4 +143,6 @@ CODES: dict[str, str] = {
     "RAC101": "hardware driven by no node",
     "RAC102": "node with no topics",
     "RAC103": "declared topic used by no node",
+    "RAC104": "a feedback loop in the data flow (note)",
+    "RAC105": "a feedback loop too large for the exact loop rule",
 }
