@@ -34,6 +34,8 @@ COMMANDS = (
     "board-sim",
     "learn",
     "synth",
+    "analyze",
+    "place",
 )
 
 DESCRIPTION = """\
