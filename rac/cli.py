@@ -36,6 +36,7 @@ COMMANDS = (
     "synth",
     "analyze",
     "place",
+    "import-model",  # `racc import`: `import` cannot name a module
 )
 
 DESCRIPTION = """\
