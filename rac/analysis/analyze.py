@@ -124,7 +124,14 @@ class Analyzer:
         self.index: Index = compile_theory(theory)
         self.props = observable(theory)
         self.base0, _ = self.index.base(())
-        self.derivable = {c: self._derivable(frozenset((c,))) for c in theory.components}
+        self._derivable_memo: dict[str, int] = {}
+        self._observed: dict[tuple[str, tuple[str, ...]], tuple[Literal, ...]] = {}
+
+    def derivable(self, component: str) -> int:
+        hit = self._derivable_memo.get(component)
+        if hit is None:
+            hit = self._derivable_memo[component] = self._derivable(frozenset((component,)))
+        return hit
 
     def _derivable(self, bad: frozenset[str]) -> int:
         """Bit set of the props derived with ``bad`` abnormal and all else normal."""
@@ -154,16 +161,36 @@ class Analyzer:
             return False, ()
         found = []
         for c in self.theory.components if universe is None else universe:
-            if self.derivable[c] & bad:
+            if self.derivable(c) & bad:
                 continue  # c alone abnormal still derives an atom observed bad
             if not index.run(base, index.assignment(frozenset((c,)), strong=True)).clash:
                 found.append(c)
         return True, tuple(found)
 
     def observe(self, mode: str, faults: Sequence[str]) -> tuple[Literal, ...]:
-        if mode == "crash" and self.theory.model is None:
-            return predict(self.theory, faults)
-        return truth_model(self.theory).observe(mode, faults)
+        key = (mode, tuple(faults))
+        hit = self._observed.get(key)
+        if hit is None:
+            if mode == "crash" and self.theory.model is None:
+                hit = predict(self.theory, faults)
+            else:
+                hit = truth_model(self.theory).observe(mode, faults)
+            self._observed[key] = hit
+        return hit
+
+
+_ANALYZERS: dict[int, Analyzer] = {}
+
+
+def analyzer_for(theory: Theory) -> Analyzer:
+    """One analyzer per theory object (kept for the last few), as ``compile_theory`` does."""
+    hit = _ANALYZERS.get(id(theory))
+    if hit is not None and hit.theory is theory:
+        return hit
+    if len(_ANALYZERS) >= 4:
+        _ANALYZERS.pop(next(iter(_ANALYZERS)))
+    analyzer = _ANALYZERS[id(theory)] = Analyzer(theory)
+    return analyzer
 
 
 def fault_components(theory: Theory, mode: str) -> tuple[str, ...]:
@@ -185,7 +212,7 @@ def ambiguity_groups(faults: Sequence[FaultReport]) -> tuple[tuple[str, ...], ..
 def analyze(
     theory: Theory, mode: str = "crash", double: bool = False, name: str = "model"
 ) -> Analysis:
-    analyzer = Analyzer(theory)
+    analyzer = analyzer_for(theory)
     graph = flow_graph(theory.model) if theory.model is not None else nx.DiGraph()
     reports = []
     universe = fault_components(theory, mode)

@@ -33,8 +33,9 @@ import clarabel
 import networkx as nx
 import numpy as np
 
-from rac.analysis.analyze import Analysis, Analyzer, analyze, flow_graph
+from rac.analysis.analyze import Analysis, analyze, analyzer_for, cone, flow_graph
 from rac.analysis.modes import truth_model
+from rac.diagnosis.engine import Index
 from rac.diagnosis.theory import Literal, Theory
 from rac.errors import Diagnostic, RacError
 from rac.ir import FieldRef, Interval, Limits, Model, Name, Related
@@ -191,86 +192,89 @@ def _pair_ok(model: Model, a: FieldRef, b: FieldRef) -> bool:
 class _States:
     """Which atoms hold under each fault (truth) and with each component abnormal (theory)."""
 
-    def __init__(self, theory: Theory, mode: str) -> None:
-        self.analyzer = Analyzer(theory)
+    def __init__(self, theory: Theory, mode: str, cands: Sequence[Candidate]) -> None:
+        self.analyzer = analyzer_for(theory)
         self.truth = truth_model(theory)
         self.mode = mode
-        self.graph = flow_graph(self.truth.model)
-        self._true_cache: dict[str, tuple[frozenset[str], frozenset[tuple[str, str]]]] = {}
-        self._diag_cache: dict[str | None, frozenset[tuple[str, str]]] = {}
+        self.cands = cands
+        graph = flow_graph(self.truth.model)
+        self.below = {
+            j: {t[2:] for t in nx.descendants(graph, "t:" + mangle(c.key))}
+            for j, c in enumerate(cands)
+            if c.kind == "GObs" and "t:" + mangle(c.key) in graph
+        }
+        self.cone = {c: set(cone(graph, c)) for c in theory.components}
+        # Candidate conditions as atom ids of each index (-1: an atom the index lacks).
+        self._truth_ids = [self._compile(c, self.truth.index) for c in cands]
+        self._diag_ids = [self._compile(c, self.analyzer.index) for c in cands]
+        self._truth_memo: dict[str, tuple[frozenset[str], set[int]]] = {}
+        self._diag_memo: dict[str | None, set[int]] = {}
 
-    def _atoms(
-        self, index_keys: list[tuple[str, tuple[str, ...]]], ids: set[int]
-    ) -> set[tuple[str, str]]:
-        return {(index_keys[i][0], ",".join(index_keys[i][1])) for i in ids}
+    @staticmethod
+    def _compile(cand: Candidate, index: Index) -> list[list[tuple[str, str, int]]]:
+        out = []
+        for clause in cand.clauses:
+            conds = []
+            for kind, a, b in clause:
+                if kind == "nab":
+                    conds.append(("nab", f"{a}@{b}", -1))
+                else:
+                    found = index.ids.get((a, tuple(b.split(","))))
+                    conds.append(("atom", a, -1 if found is None else found))
+            out.append(conds)
+        return out
 
-    def truth_state(self, fault: str) -> tuple[frozenset[str], frozenset[tuple[str, str]]]:
-        hit = self._true_cache.get(fault)
+    @staticmethod
+    def _true_ids(index: Index, bad: frozenset[str], strong: bool) -> set[int]:
+        base, _ = index.base(())
+        why = index.run(base, index.assignment(bad, strong=strong), stop=False).why
+        return {i for i, v in enumerate(base.true) if v} | set(why)
+
+    def holds_truth(self, j: int, fault: str) -> bool:
+        hit = self._truth_memo.get(fault)
         if hit is None:
-            index = self.truth.index
             broken = self.truth.broken(self.mode, (fault,))
-            base, _ = index.base(())
-            why = index.run(base, index.assignment(broken, strong=False), stop=False).why
-            ids = {i for i, v in enumerate(base.true) if v} | set(why)
-            hit = (broken, frozenset(self._atoms(index.keys, ids)))
-            self._true_cache[fault] = hit
-        return hit
+            true = self._true_ids(self.truth.index, broken, False)
+            hit = self._truth_memo[fault] = (broken, true)
+        broken, true = hit
+        return any(
+            all(name not in broken if kind == "nab" else i in true for kind, name, i in clause)
+            for clause in self._truth_ids[j]
+        )
 
-    def diag_state(self, abnormal: str | None) -> frozenset[tuple[str, str]]:
-        hit = self._diag_cache.get(abnormal)
-        if hit is None:
-            index = self.analyzer.index
+    def holds_diag(self, j: int, abnormal: str | None) -> bool:
+        true = self._diag_memo.get(abnormal)
+        if true is None:
             bad = frozenset() if abnormal is None else frozenset((abnormal,))
-            base = self.analyzer.base0
-            why = index.run(base, index.assignment(bad, strong=True), stop=False).why
-            ids = {i for i, v in enumerate(base.true) if v} | set(why)
-            hit = frozenset(self._atoms(index.keys, ids))
-            self._diag_cache[abnormal] = hit
-        return hit
-
-    def holds_truth(self, cand: Candidate, fault: str) -> bool:
-        broken, atoms = self.truth_state(fault)
+            true = self._diag_memo[abnormal] = self._true_ids(self.analyzer.index, bad, True)
         return any(
             all(
-                f"{c[1]}@{c[2]}" not in broken if c[0] == "nab" else (c[1], c[2]) in atoms
-                for c in clause
+                name.split("@")[0] != abnormal if kind == "nab" else i in true
+                for kind, name, i in clause
             )
-            for clause in cand.clauses
-        )
-
-    def holds_diag(self, cand: Candidate, abnormal: str | None) -> bool:
-        atoms = self.diag_state(abnormal)
-        return any(
-            all(c[1] != abnormal if c[0] == "nab" else (c[1], c[2]) in atoms for c in clause)
-            for clause in cand.clauses
+            for clause in self._diag_ids[j]
         )
 
 
-def _exonerating(
-    states: _States, fault: str, other: str, cands: Sequence[Candidate], good: list[int]
-) -> list[int]:
+def _exonerating(states: _States, fault: str, other: str, good: list[int]) -> list[int]:
     """GObs candidates whose *good* report under ``fault`` rules ``other`` out.
 
     Observed ok, a topic feeds the clauses downstream of it: with ``other`` abnormal they may
-    then derive an atom the fault makes bad.  Only topics upstream of a symptom can.
+    then derive an atom the fault makes bad.  That needs a topic ``other`` can reach (else
+    its ok is derived anyway) and a symptom below it.
     """
     analyzer = states.analyzer
     obs = list(analyzer.observe(states.mode, (fault,)))
     symptoms = {lit.atom.args[0] for lit in obs if not lit.positive and lit.atom.args}
-    graph = states.graph
+    reach = states.cone.get(other, set())
     out = []
     index = analyzer.index
     for j in good:
-        cand = cands[j]
-        if cand.kind != "GObs":
+        below = states.below.get(j)
+        topic = mangle(states.cands[j].key)
+        if below is None or topic not in reach or not below & symptoms:
             continue
-        node = "t:" + mangle(cand.key)
-        if node not in graph:
-            continue
-        below = {t[2:] for t in nx.descendants(graph, node) if t.startswith("t:")}
-        if not below & symptoms:
-            continue
-        literal = Literal(Atom("ok", (mangle(cand.key),)), True, analyzer.theory.neg_prefix)
+        literal = Literal(Atom("ok", (topic,)), True, analyzer.theory.neg_prefix)
         base, clash = index.base([*obs, literal])
         if clash or index.run(base, index.assignment(frozenset((other,)), strong=True)).clash:
             out.append(j)
@@ -284,11 +288,11 @@ def requirements(
     unmet: list[Requirement] = []
     for fault in analysis.faults:
         c = fault.component
-        holds = [states.holds_truth(cand, c) for cand in cands]
+        holds = [states.holds_truth(j, c) for j in range(len(cands))]
         bad = [j for j in range(len(cands)) if not holds[j]]
         good = [j for j in range(len(cands)) if holds[j]]
         if not fault.detectable:
-            options = tuple(j for j in bad if states.holds_diag(cands[j], None))
+            options = tuple(j for j in bad if states.holds_diag(j, None))
             (met if options else unmet).append(Requirement(c, None, options))
             continue
         if not fault.found:
@@ -296,8 +300,8 @@ def requirements(
         for d in fault.candidates:
             if d == c:
                 continue
-            direct = [j for j in bad if states.holds_diag(cands[j], d)]
-            options = tuple(sorted({*direct, *_exonerating(states, c, d, cands, good)}))
+            direct = [j for j in bad if states.holds_diag(j, d)]
+            options = tuple(sorted({*direct, *_exonerating(states, c, d, good)}))
             (met if options else unmet).append(Requirement(c, d, options))
     return met, unmet
 
@@ -537,7 +541,7 @@ def place(
     before = analyze(theory, mode, name=model.path)
     cands = candidates(model, learned, costs)
     weights = [c.cost for c in cands]
-    states = _States(theory, mode)
+    states = _States(theory, mode, cands)
     reqs, unmet = requirements(states, before, cands)
     if budget is None:
         bound, x = lp_cover(reqs, weights)
@@ -552,12 +556,17 @@ def place(
         chosen = greedy_add(reqs, weights, chosen, budget)
     all_reqs = list(reqs)
     after = before
+    patched = model
     for _ in range(rounds):
         patched = patch_model(model, cands, sorted(chosen))
-        after = analyze(_theory_of(patched), mode, name=model.path)
+        patched_theory = _theory_of(patched)
+        after = analyze(patched_theory, mode, name=model.path)
         # Requirements the chosen observers reveal (a fault they detect but do not yet tell
         # apart): add them to the program and solve it again.
-        new, _ = requirements(_States(_theory_of(patched), mode), after, cands)
+        open_faults = dataclasses.replace(
+            after, faults=tuple(f for f in after.faults if not f.isolable)
+        )
+        new, _ = requirements(_States(patched_theory, mode, cands), open_faults, cands)
         fresh = [r for r in new if not chosen.intersection(r.options) and r not in all_reqs]
         if not fresh:
             break
@@ -567,6 +576,8 @@ def place(
             chosen = round_cover(all_reqs, weights, x)
         else:
             chosen = greedy_add(all_reqs, weights, chosen, budget)
+    if patch_model(model, cands, sorted(chosen)) != patched:  # chosen again after the check
+        after = analyze(_theory_of(patch_model(model, cands, sorted(chosen))), mode)
     notes = annotate(cands, sorted(chosen), all_reqs, mode)
     patched = patch_model(model, cands, sorted(chosen), notes)
     cost = sum(weights[j] for j in chosen)
