@@ -78,7 +78,7 @@ def main() -> int:
     t1 = time.perf_counter()
     result = analyze(theory, args.mode)
     t2 = time.perf_counter()
-    placement = place(theory, args.mode)
+    placement = place(theory, args.mode, before=result)
     t3 = time.perf_counter()
     loops = find_loops(compiled.model)
     after = placement.after

@@ -534,11 +534,14 @@ def place(
     learned: Model | None = None,
     costs: Mapping[str, float] | None = None,
     rounds: int = 4,
+    before: Analysis | None = None,
 ) -> Placement:
+    """Place observers for ``mode``; ``before`` is the model's analysis when already made."""
     model = theory.model
     if model is None:
         raise RacError([Diagnostic("RAC060", "racc place needs a .ram or .json model")])
-    before = analyze(theory, mode, name=model.path)
+    if before is None or before.mode != mode:
+        before = analyze(theory, mode, name=model.path)
     cands = candidates(model, learned, costs)
     weights = [c.cost for c in cands]
     states = _States(theory, mode, cands)
