@@ -115,3 +115,24 @@ def test_costs_steer_the_choice(tmp_path: Path, capsys: pytest.CaptureFixture[st
     assert main(["place", TEDUSAR, "--costs", str(costs), "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["cost"] >= 3
+
+
+def test_learned_candidates_give_values_and_pairs(tmp_path: Path) -> None:
+    from rac.analysis.place import candidates
+    from rac.loader import load_model
+
+    text = Path(LOOP).read_text()
+    text = text.replace(
+        "topic /map : nav_msgs/OccupancyGrid", "topic /map : nav_msgs/OccupancyGrid @ 2 Hz"
+    )
+    text += "relate /scan.ranges ~ /corrected_odometry_pose.yaw\n"
+    learned = tmp_path / "learned.ram"
+    learned.write_text(text)
+    model = load_theory(LOOP).model
+    assert model is not None
+    cands = {c.name: c for c in candidates(model, load_model(str(learned)))}
+    assert cands["GObs /map"].value == 2.0 and cands["GObs /map"].learned
+    assert "BiQObs /scan.ranges ~ /corrected_odometry_pose.yaw" in cands
+    out = tmp_path / "patch"
+    assert main(["place", LOOP, "--candidates", str(learned), "-o", str(out)]) == 0
+    assert "topic /map : nav_msgs/OccupancyGrid @ 2 Hz" in out.read_text()
