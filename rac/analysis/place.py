@@ -599,11 +599,6 @@ def place(
     )
 
 
-def _rebase(cands: Sequence[Candidate], patched: Model) -> tuple[Candidate, ...]:
-    """The same candidates against the patched model (a chosen GObs is now just observed)."""
-    return tuple(cands)
-
-
 def _theory_of(model: Model) -> Theory:
     compiled = compile_model(model)
     return Theory(compiled.rbm, compiled.props, compiled.components, model=compiled.model)
