@@ -36,6 +36,9 @@ COMMANDS = (
     "synth",
     "replay",
     "evaluate",
+    "analyze",
+    "place",
+    "import-model",  # `racc import`: `import` cannot name a module
 )
 
 DESCRIPTION = """\

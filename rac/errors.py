@@ -28,6 +28,7 @@ class Span:
 class Severity(StrEnum):
     ERROR = "error"
     WARNING = "warning"
+    NOTE = "note"  # information the engineer should know; never stops anything
 
 
 @dataclass(frozen=True, slots=True)
@@ -120,6 +121,12 @@ CODES: dict[str, str] = {
     "RAC050": "invalid observer specification",
     "RAC051": "invalid observer parameter value",
     # Repair (chapter 7, issue 4): the repair commands exit 3 on RAC070-RAC075, RAC077, RAC078.
+    # Analysis, placement and import (issue 12).
+    "RAC060": "a fault mode or command needs a .ram or .json model",
+    "RAC061": "a component cannot fail in the given fault mode",
+    "RAC062": "invalid costs file",
+    "RAC063": "the LP relaxation failed",
+    "RAC064": "invalid tug_diagnosis configuration",
     "RAC070": "no diagnosis explains the observations",
     "RAC071": "a component to repair has no repair action",
     "RAC072": "the planner is not installed",
@@ -148,4 +155,7 @@ CODES: dict[str, str] = {
     "RAC101": "hardware driven by no node",
     "RAC102": "node with no topics",
     "RAC103": "declared topic used by no node",
+    "RAC104": "a feedback loop in the data flow (note)",
+    "RAC105": "a feedback loop too large for the exact loop rule",
+    "RAC106": "part of an imported configuration has no counterpart (note)",
 }

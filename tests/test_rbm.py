@@ -8,6 +8,7 @@ of (body atoms, head), so order and spacing are free.
 from __future__ import annotations
 
 import functools
+import itertools
 import json
 import re
 from pathlib import Path
@@ -101,7 +102,68 @@ def reference_rbm(doc: dict[str, Any]) -> set[Clause]:
         for n1 in publishers.get(t1, []):
             for n2 in publishers.get(t2, []):
                 add([atom("NAB", n1), atom("NAB", n2), *observed], head)
+    for body, head in reference_loop_rules(nodes, switchable):  # the loop rule
+        add(body, head)
     return clauses
+
+
+def _strongly_connected(members: tuple[str, ...], edges: set[tuple[str, str]]) -> bool:
+    """Every member reaches every other along ``edges`` (plain search, no library)."""
+    for start in members:
+        seen, stack = {start}, [start]
+        while stack:
+            u = stack.pop()
+            for a, b in edges:
+                if a == u and b not in seen:
+                    seen.add(b)
+                    stack.append(b)
+        if not set(members) <= seen:
+            return False
+    return True
+
+
+def reference_loop_rules(
+    nodes: list[dict[str, Any]], switchable: set[str]
+) -> list[tuple[list[str], str]]:
+    """Every set R of two or more topics with one publication each (an input in R) that
+    connects R strongly: the chosen nodes and hardware NAB, inputs outside R ok -> ok(τ ∈ R)."""
+    pubs = [
+        (n["name"], [h for h in n.get("drives") or [] if h in switchable], p)
+        for n in nodes
+        for p in n.get("publishes") or []
+    ]
+    topics = sorted({p["topic"] for _, _, p in pubs})
+    out = []
+    for size in range(2, len(topics) + 1):
+        for subset in itertools.combinations(topics, size):
+            inside = set(subset)
+            options = [
+                [
+                    x
+                    for x in pubs
+                    if x[2]["topic"] == t and inside & set(x[2].get("affected_by") or [])
+                ]
+                for t in subset
+            ]
+            for choice in itertools.product(*options):
+                edges = {
+                    (i, p["topic"])
+                    for _, _, p in choice
+                    for i in p.get("affected_by") or []
+                    if i in inside
+                }
+                if not _strongly_connected(subset, edges):
+                    continue
+                body = [atom("NAB", n) for n, _, _ in choice]
+                body += [atom("NAB", h) for _, hw, _ in choice for h in hw]
+                body += [
+                    atom("ok", i)
+                    for _, _, p in choice
+                    for i in p.get("affected_by") or []
+                    if i not in inside
+                ]
+                out.extend((body, atom("ok", t)) for t in subset)
+    return out
 
 
 def reference_props(doc: dict[str, Any]) -> set[str]:

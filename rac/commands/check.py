@@ -6,6 +6,7 @@ import argparse
 from typing import Any
 
 from rac.commands.common import add_command, load_and_compile
+from rac.errors import Severity
 
 
 def register(sub: Any) -> None:
@@ -13,7 +14,8 @@ def register(sub: Any) -> None:
         sub,
         "check",
         "validate a model, write nothing",
-        "Parse and validate MODEL; print every error and warning with file, line and column.",
+        "Parse and validate MODEL; print every error and warning with file, line and column, "
+        "and a note (RAC104) naming each feedback loop of the data flow.",
         "  racc check models/tedusar.ram\n  racc check robot.json",
     )
     parser.add_argument("model", metavar="MODEL", help="a .ram file or a ram/1 .json")
@@ -23,9 +25,11 @@ def register(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     compiled = load_and_compile(args.model)
     model = compiled.model
+    notes = sum(d.severity is Severity.NOTE for d in compiled.warnings)
     print(
         f"{args.model}: ok ({len(model.nodes)} nodes, {len(model.hardware)} hardware, "
         f"{len(model.topics)} topics, {len(compiled.components)} components, "
-        f"{len(compiled.warnings)} warnings)"
+        f"{len(compiled.warnings) - notes} warnings"
+        + (f", {notes} feedback loop{'s' if notes > 1 else ''})" if notes else ")")
     )
     return 0

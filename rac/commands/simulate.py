@@ -6,6 +6,7 @@ import argparse
 import json
 from typing import Any
 
+from rac.analysis.modes import MODES
 from rac.commands.common import add_command
 from rac.commands.diagnose import card, to_json
 from rac.diagnosis import Simulation, all_single_faults, ambiguity_groups, load_theory, simulate
@@ -21,8 +22,12 @@ def register(sub: Any) -> None:
         "all others normal, else its negation is observed), diagnose those observations and "
         "report whether the fault was detected and whether the injected set is a diagnosis. "
         "--all-single-faults does this for every component and names the ambiguity groups "
-        "(components the model cannot tell apart).",
+        "(components the model cannot tell apart).  --mode says how the components fail: "
+        "crash (the default: the component stops, everything it reports and publishes goes "
+        "bad), output (a node runs but its outputs are wrong) or silent-hardware (a device is "
+        "dead while the board still shows it powered).",
         "  racc simulate models/tedusar.ram --fault jaguar\n"
+        "  racc simulate models/pioneer.ram --all-single-faults --mode output\n"
         "  racc simulate models/tedusar.ram --fault imu_node --fault hokuyo --json\n"
         "  racc simulate models/tedusar.ram --all-single-faults",
     )
@@ -37,6 +42,12 @@ def register(sub: Any) -> None:
     parser.add_argument(
         "--max-card", metavar="K", type=card, default=None, help="bound the diagnosis search"
     )
+    parser.add_argument(
+        "--mode",
+        choices=MODES,
+        default="crash",
+        help="how the injected components fail (default: crash)",
+    )
     parser.add_argument("--json", action="store_true", help="print JSON")
     parser.set_defaults(run=run)
 
@@ -46,7 +57,7 @@ def _yes(flag: bool) -> str:
 
 
 def single_report(sim: Simulation) -> str:
-    lines = [f"injected: {', '.join(sim.faults) or '(none)'}"]
+    lines = [f"injected: {', '.join(sim.faults) or '(none)'} (mode: {sim.mode})"]
     changed = [str(o) for o in sim.observations if not o.positive]
     lines.append(f"predicted negative observations ({len(changed)}): {', '.join(changed) or '-'}")
     lines.append(f"detected: {_yes(sim.detected)}")
@@ -61,6 +72,7 @@ def single_report(sim: Simulation) -> str:
 def single_json(sim: Simulation) -> dict[str, Any]:
     return {
         "faults": list(sim.faults),
+        "mode": sim.mode,
         "observations": [str(o) for o in sim.observations],
         "detected": sim.detected,
         **to_json(sim.result),
@@ -70,7 +82,9 @@ def single_json(sim: Simulation) -> dict[str, Any]:
     }
 
 
-def table_report(sims: tuple[Simulation, ...], groups: tuple[tuple[str, ...], ...]) -> str:
+def table_report(
+    sims: tuple[Simulation, ...], groups: tuple[tuple[str, ...], ...], mode: str = "crash"
+) -> str:
     width = max([len("component"), *(len(s.faults[0]) for s in sims)])
     lines = [f"{'component':<{width}}  detected  candidates  isolated"]
     for sim in sims:
@@ -81,7 +95,9 @@ def table_report(sims: tuple[Simulation, ...], groups: tuple[tuple[str, ...], ..
     detected = sum(s.detected for s in sims)
     isolated = sum(s.isolated for s in sims)
     lines.append("")
-    lines.append(f"{detected}/{len(sims)} faults detected, {isolated}/{len(sims)} isolated")
+    lines.append(
+        f"{detected}/{len(sims)} faults detected, {isolated}/{len(sims)} isolated (mode: {mode})"
+    )
     if groups:
         lines.append("ambiguity groups (the model cannot tell these components apart):")
         lines.extend(f"  {{{', '.join(g)}}}" for g in groups)
@@ -102,10 +118,11 @@ def table_report(sims: tuple[Simulation, ...], groups: tuple[tuple[str, ...], ..
 def run(args: argparse.Namespace) -> int:
     theory = load_theory(args.model)
     if args.all_single_faults:
-        sims = all_single_faults(theory, args.max_card)
+        sims = all_single_faults(theory, args.max_card, args.mode)
         groups = ambiguity_groups(sims)
         if args.json:
             doc = {
+                "mode": args.mode,
                 "components": [
                     {
                         "component": s.faults[0],
@@ -120,8 +137,8 @@ def run(args: argparse.Namespace) -> int:
             }
             print(json.dumps(doc, indent=2))
         else:
-            print(table_report(sims, groups))
+            print(table_report(sims, groups, args.mode))
         return 0
-    sim = simulate(theory, args.fault, args.max_card)
+    sim = simulate(theory, args.fault, args.max_card, args.mode)
     print(json.dumps(single_json(sim), indent=2) if args.json else single_report(sim))
     return 0

@@ -20,6 +20,7 @@ class Simulation:
     faults: tuple[str, ...]  # the injected set, sorted
     observations: tuple[Literal, ...]
     result: DiagnosisResult
+    mode: str = "crash"  # how the faults fail (rac.analysis.modes)
 
     @property
     def detected(self) -> bool:
@@ -82,14 +83,31 @@ def predict(theory: Theory, faults: Sequence[str]) -> tuple[Literal, ...]:
     return tuple(observations)
 
 
-def simulate(theory: Theory, faults: Sequence[str], max_card: int | None = None) -> Simulation:
+def simulate(
+    theory: Theory, faults: Sequence[str], max_card: int | None = None, mode: str = "crash"
+) -> Simulation:
+    """Inject ``faults`` failing in ``mode`` (crash, output, silent-hardware) and diagnose."""
+    from rac.analysis.modes import check_mode, observe  # the modes build on this package
+
     injected = check_components(theory, faults)
-    observations = predict(theory, injected)
-    return Simulation(injected, observations, diagnose(theory, observations, max_card))
+    check_mode(theory, mode, injected)
+    observations = predict(theory, injected) if mode == "crash" else observe(theory, mode, injected)
+    assert observations is not None
+    return Simulation(injected, observations, diagnose(theory, observations, max_card), mode)
 
 
-def all_single_faults(theory: Theory, max_card: int | None = None) -> tuple[Simulation, ...]:
-    return tuple(simulate(theory, (c,), max_card) for c in theory.components)
+def all_single_faults(
+    theory: Theory, max_card: int | None = None, mode: str = "crash"
+) -> tuple[Simulation, ...]:
+    """One simulation per component that can fail in ``mode``."""
+    if mode == "crash":
+        comps = theory.components
+    else:
+        from rac.analysis.modes import truth_model
+
+        truth = truth_model(theory)
+        comps = tuple(c for c in theory.components if truth.applies(mode, c))
+    return tuple(simulate(theory, (c,), max_card, mode) for c in comps)
 
 
 def ambiguity_groups(simulations: Sequence[Simulation]) -> tuple[tuple[str, ...], ...]:

@@ -1,7 +1,8 @@
 """derive_rbm: the robot behavioural model, contract §3 (Algorithm 9 generalised).
 
 Clauses come out in the order of the contract's seven groups, each group in
-declaration order, without duplicates, so the output is stable and readable.
+declaration order, without duplicates, so the output is stable and readable.  The loop
+rule (``rac.passes.loops``) follows the publication clauses it completes.
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from collections.abc import Iterator
 
 from rac.ir import FieldRef, Model
 from rac.logic import NAB, Atom, Clause, integral_arg, mangle
+from rac.passes.loops import loop_clauses
 
 
 # Atoms are immutable, and a model names each component and topic in many clauses:
@@ -93,6 +95,7 @@ def _pair_clauses(model: Model) -> Iterator[Clause]:
 GROUPS = (
     _hardware_clauses,
     _publication_clauses,
+    loop_clauses,  # 2b: the loop rule, after the publications it completes
     _node_clauses,
     _limit_clauses,
     _diagnostics_clauses,

@@ -313,6 +313,33 @@ def check_usage(model: Model) -> Iterator[Diagnostic]:
             yield _warning("RAC103", f"topic '{t.name.value}' is used by no node", t.name.span)
 
 
+def check_loops(model: Model) -> Iterator[Diagnostic]:
+    """A note naming each feedback loop; a warning when it is too large for the exact rule."""
+    from rac.passes.loops import find_loops, is_exact  # networkx: only when validating
+
+    declared = model.topic_by_name()
+    for loop in find_loops(model):
+        first = declared.get(loop.topics[0])
+        span = first.name.span if first else None
+        nodes = ", ".join(loop.nodes)
+        yield Diagnostic(
+            "RAC104",
+            f"feedback loop {loop.describe()} through {nodes}",
+            span,
+            Severity.NOTE,
+            "the loop rule derives its topics ok when its nodes are healthy and its inputs "
+            "from outside are ok",
+        )
+        if not is_exact(loop):
+            yield _warning(
+                "RAC105",
+                f"the loop through {loop.topics[0]} has too many alternative paths for the "
+                "exact loop rule: its topics are derived ok only when all of it is healthy",
+                span,
+                "split the loop, or give publications fewer 'from' inputs",
+            )
+
+
 RULES: tuple[Rule, ...] = (
     check_names,
     check_duplicates,
@@ -325,6 +352,7 @@ RULES: tuple[Rule, ...] = (
     check_values,
     check_mangling,
     check_usage,
+    check_loops,
 )
 
 

@@ -1,0 +1,82 @@
+"""``racc import tug``: a tug_diagnosis configuration as a .ram model."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+from rac.commands.common import add_command, write_file_atomically
+from rac.errors import RacError
+from rac.fmt import format_model
+from rac.loader import read_text
+from rac.pipeline import compile_model
+from rac.tug import DEFAULT_RATE_HZ, import_tug
+
+
+def register(sub: Any) -> None:
+    parser = add_command(
+        sub,
+        "import",
+        "read another system's configuration as a .ram model",
+        "FORMAT tug: a tug_diagnosis configuration (the dissertation's successor system): its "
+        "'nodes' (name, pub_topic, sub_topic) become nodes whose every output depends on all "
+        "of their inputs, as tug_diagnosis models them, and its 'observations' become "
+        "observers where the language has them (hz: a topic rate; activated: the node "
+        "observer every node has).  Everything else (timeout, timestamp, resources without "
+        "values, timing, velocity, scores, unknown keys) is reported on stderr as a note "
+        "(RAC106) naming what it would need, and listed in the model's header comments.  The "
+        "model is validated before it is written; its feedback loops are named (RAC104).",
+        "  racc import tug config_paul.yaml -o paul.ram\n"
+        "  racc import tug config.yaml -o robot.ram --name knapp --default-rate 20",
+    )
+    parser.add_argument("format", choices=("tug",), help="the configuration's format")
+    parser.add_argument("config", metavar="CONFIG", help="the configuration YAML")
+    parser.add_argument("-o", "--output", metavar="FILE", required=True, help="the .ram to write")
+    parser.add_argument("--name", help="the robot's name (default: the file's stem)")
+    parser.add_argument(
+        "--default-rate",
+        metavar="HZ",
+        type=_rate,
+        default=DEFAULT_RATE_HZ,
+        help=f"the rate written for hz-observed topics (default {DEFAULT_RATE_HZ:g})",
+    )
+    parser.set_defaults(run=run)
+
+
+def _rate(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"a rate must be > 0, not {text}")
+    return value
+
+
+def run(args: argparse.Namespace) -> int:
+    name = args.name or Path(args.config).stem
+    imported = import_tug(read_text(args.config), args.config, name, args.default_rate)
+    model = imported.model
+    text = format_model(model)
+    try:
+        compiled = compile_model(model)
+    except RacError as err:
+        print(text, file=sys.stderr)
+        raise err
+    for d in imported.diagnostics():
+        print(d.render(), file=sys.stderr)
+    for d in compiled.warnings:
+        print(d.render(), file=sys.stderr)
+    body = text.split("\n", len(model.comments))
+    notes = "".join(f"# import: {n}\n" for n in imported.notes)
+    out = "\n".join(body[: len(model.comments)]) + "\n" + notes + body[-1]
+    write_file_atomically(Path(args.output), out)
+    print(
+        f"{args.output}: {len(model.nodes)} nodes, {len(model.topics)} topics, "
+        f"{len(compiled.components)} components, {len(imported.notes)} notes",
+        file=sys.stderr,
+    )
+    return 0

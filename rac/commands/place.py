@@ -1,0 +1,170 @@
+"""``racc place``: the cheapest added observers that make every detectable fault isolable."""
+
+from __future__ import annotations
+
+import argparse
+import difflib
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from rac.analysis.modes import MODES
+from rac.analysis.place import Placement, place
+from rac.commands.common import add_command, write_file_atomically
+from rac.diagnosis import load_theory
+from rac.errors import Diagnostic, RacError
+from rac.fmt import format_model
+from rac.loader import load_model, read_text
+
+
+def register(sub: Any) -> None:
+    parser = add_command(
+        sub,
+        "place",
+        "propose the cheapest observers that make the faults isolable",
+        "Analyse MODEL in one fault mode (output by default), then choose additional "
+        "observers (a GObs per topic without a rate, a PObs per node, a DObs per driven device, "
+        "and the rates, limits, relations and intervals of a learned model) so that every "
+        "detectable fault is detected and told apart, at the least cost: an integer covering "
+        "and separating program whose LP relaxation clarabel solves, rounded and improved "
+        "greedily.  Prints the LP lower bound, the cost and the scores before and after on "
+        "stderr, and the .ram patch (a unified diff of the canonical text, one comment per "
+        "observer naming the ambiguity it resolves) on stdout or into -o FILE.  Values racc "
+        "cannot know (the rate of a new GObs, a new limit) are placeholders, marked so.",
+        "  racc place models/tedusar.ram\n"
+        "  racc place models/pioneer.ram --budget 2 -o pioneer.patch\n"
+        "  racc place robot.ram --candidates learned.ram --costs costs.yaml --mode crash",
+    )
+    parser.add_argument("model", metavar="MODEL", help="a .ram or a ram/1 .json")
+    parser.add_argument("--mode", choices=MODES, default="output", help="fault mode (output)")
+    parser.add_argument(
+        "--budget", metavar="N", type=_budget, help="spend at most N (cost units; 1 per observer)"
+    )
+    parser.add_argument(
+        "--candidates", metavar="LEARNED", help="a learned .ram (racc learn) for more candidates"
+    )
+    parser.add_argument(
+        "--costs", metavar="COSTS", help="YAML: cost per observer kind, 'KIND key' or key"
+    )
+    parser.add_argument("-o", "--output", metavar="FILE", help="write the patch here")
+    parser.add_argument("--json", action="store_true", help="print the placement as JSON")
+    parser.set_defaults(run=run)
+
+
+def _budget(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value) or value < 0:
+        raise argparse.ArgumentTypeError(f"the budget must be ≥ 0, not {text}")
+    return value
+
+
+def load_costs(path: str) -> dict[str, float]:
+    try:
+        doc = yaml.safe_load(read_text(path))
+    except yaml.YAMLError as err:
+        raise RacError([Diagnostic("RAC062", f"{path}: not YAML: {err}")]) from None
+    if doc is None:
+        return {}
+    bad = not isinstance(doc, dict) or any(
+        not isinstance(k, str) or isinstance(v, bool) or not isinstance(v, int | float) or v <= 0
+        for k, v in doc.items()
+    )
+    if bad:
+        raise RacError(
+            [
+                Diagnostic(
+                    "RAC062",
+                    f"{path}: costs must map observer kinds or names to positive numbers",
+                    hint="e.g. 'GObs: 1', 'PObs: 2', 'GObs /map: 5'",
+                )
+            ]
+        )
+    return {str(k): float(v) for k, v in doc.items()}
+
+
+def patch_text(path: str, placement: Placement) -> str:
+    model = load_model(path)
+    before = format_model(model)
+    after = format_model(placement.patched)
+    name = Path(path).name
+    return "".join(
+        difflib.unified_diff(
+            before.splitlines(keepends=True),
+            after.splitlines(keepends=True),
+            fromfile=f"a/{name}",
+            tofile=f"b/{name}",
+        )
+    )
+
+
+def summary(p: Placement) -> str:
+    b, a = p.before, p.after
+    lines = [
+        f"mode {p.mode}: {len(p.candidates)} candidate observers, {len(p.requirements)} "
+        f"requirements",
+        f"chosen ({len(p.chosen)}, cost {p.cost:g}): "
+        + (", ".join(p.candidates[j].name for j in p.chosen) or "none"),
+    ]
+    if p.budget is None:
+        ratio = p.cost / p.lp_bound if p.lp_bound > 1e-9 else 1.0
+        lines.append(f"LP lower bound {p.lp_bound:.3f}; cost / bound = {ratio:.3f}")
+    else:
+        lines.append(
+            f"budget {p.budget:g}: at most {p.lp_bound:.2f} requirements by the LP bound, "
+            f"{sum(1 for r in p.requirements if set(p.chosen) & set(r.options))} met"
+        )
+    lines.append(
+        f"before: detectable {b.detectable}/{len(b.faults)}, isolable {b.isolable}/{len(b.faults)}"
+        f"; after: detectable {a.detectable}/{len(a.faults)}, isolable {a.isolable}/{len(a.faults)}"
+    )
+    for r in p.unresolvable:
+        lines.append(f"no candidate observer {r.describe()}")
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    theory = load_theory(args.model)
+    learned = load_model(args.candidates) if args.candidates else None
+    costs = load_costs(args.costs) if args.costs else None
+    placement = place(theory, args.mode, args.budget, learned, costs)
+    text = patch_text(args.model, placement)
+    if args.json:
+        doc = {
+            "mode": placement.mode,
+            "lp_bound": round(placement.lp_bound, 6),
+            "cost": placement.cost,
+            "chosen": [
+                {
+                    "kind": placement.candidates[j].kind,
+                    "watches": placement.candidates[j].key,
+                    "resolves": [r.describe() for r in placement.resolves(j)],
+                }
+                for j in placement.chosen
+            ],
+            "unresolvable": [r.describe() for r in placement.unresolvable],
+            "before": {
+                "detectable": placement.before.detectable,
+                "isolable": placement.before.isolable,
+            },
+            "after": {
+                "detectable": placement.after.detectable,
+                "isolable": placement.after.isolable,
+            },
+            "faults": len(placement.after.faults),
+            "patch": text,
+        }
+        print(json.dumps(doc, indent=2))
+        return 0
+    print(summary(placement), file=sys.stderr)
+    if args.output:
+        write_file_atomically(Path(args.output), text)
+    else:
+        print(text, end="")
+    return 0
