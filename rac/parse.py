@@ -29,6 +29,7 @@ from rac.ir import (
     Related,
     Topic,
 )
+from rac.limits import ram_number_problems
 from rac.perf import paused_gc
 
 # What each terminal means to a user, for "expected ..." messages.
@@ -124,6 +125,10 @@ def _end_position(text: str) -> tuple[int, int]:
 
 def parse_ram(text: str, path: str = "<string>") -> Model:
     """Parse a ``.ram`` source into a :class:`Model` (not yet validated)."""
+    # Numbers out of range are reported before parsing: the parsers convert them.
+    out_of_range = ram_number_problems(text, path)
+    if out_of_range:
+        raise RacError(out_of_range, text)
     with paused_gc():
         try:
             # The hand-written reader of valid models is an order of magnitude faster;

@@ -31,9 +31,10 @@ def add_command(
 
 
 def print_warnings(diagnostics: tuple[Diagnostic, ...], source: str | None) -> None:
-    for d in diagnostics:
-        if not d.is_error:
-            print(d.render(source), file=sys.stderr)
+    """The warnings, capped like errors (:meth:`RacError.render`)."""
+    warnings = [d for d in diagnostics if not d.is_error]
+    if warnings:
+        print(RacError(warnings, source).render(), file=sys.stderr)
 
 
 def load_and_compile(path: str, *, quiet: bool = False) -> Compiled:
