@@ -172,6 +172,14 @@ def compose_yaml(text: str) -> yaml.Node | None:
         else:
             root = node
 
+    if not text.isascii():
+        try:
+            text.encode("utf-8")
+        except UnicodeEncodeError as err:  # a lone surrogate (from a command-line argument)
+            line = text.count("\n", 0, err.start)
+            column = err.start - (text.rfind("\n", 0, err.start) + 1)
+            mark = yaml.Mark("", err.start, line, column, None, None)
+            raise YamlLimit("not UTF-8 text: a lone surrogate", mark) from None
     for event in yaml.parse(text, Loader=_YAML_LOADER):
         start: Any = event.start_mark  # libyaml's marks or PyYAML's: the same fields
         end: Any = event.end_mark
