@@ -111,9 +111,8 @@ def main() -> int:
     for kind in kinds:
         c = counts[kind]
         total = sum(c.values())
-        print(
-            f"{kind:<8} {total:>7} {c['accepted']:>9} {c['error']:>7} {c['crash']:>6} {c['hang']:>5}"
-        )
+        row = f"{c['accepted']:>9} {c['error']:>7} {c['crash']:>6} {c['hang']:>5}"
+        print(f"{kind:<8} {total:>7} {row}")
     bad = [r for r in results if r[2] in ("crash", "hang")]
     for kind, seed, outcome, detail in bad[:50]:
         print(f"{outcome}: make_case({kind!r}, {seed}): {detail.strip()[-400:]}")
