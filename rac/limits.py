@@ -178,7 +178,7 @@ def compose_yaml(text: str) -> yaml.Node | None:
         except UnicodeEncodeError as err:  # a lone surrogate (from a command-line argument)
             line = text.count("\n", 0, err.start)
             column = err.start - (text.rfind("\n", 0, err.start) + 1)
-            mark = yaml.Mark("", err.start, line, column, None, 0)  # type: ignore[arg-type]
+            mark = yaml.Mark("", err.start, line, column, None, 0)
             raise YamlLimit("not UTF-8 text: a lone surrogate", mark) from None
     for event in yaml.parse(text, Loader=_YAML_LOADER):
         start: Any = event.start_mark  # libyaml's marks or PyYAML's: the same fields
