@@ -124,6 +124,10 @@ CODES: dict[str, str] = {
     "RAC004": "cannot read the model file",
     "RAC005": "invalid JSON interchange",
     "RAC006": "invalid model-server YAML",
+    # The documented limits on every input (rac/limits.py, issue 10).
+    "RAC007": "number out of range",
+    "RAC008": "name outside the documented character set",
+    "RAC009": "JSON or YAML document too deep or too large",
     "RAC010": "duplicate name",
     "RAC011": "undefined hardware",
     "RAC012": "undefined topic",
