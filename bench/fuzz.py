@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import multiprocessing as mp
+import shutil
 import sys
 import tempfile
 import time
@@ -36,6 +37,7 @@ def _worker(conn: Connection, jobs: list[tuple[str, int]]) -> None:
             conn.send(("start", index))
             outcome, detail = run_case(make_case(kind, seed), workdir)
             conn.send(("done", index, outcome, detail))
+            shutil.rmtree(workdir, ignore_errors=True)
     conn.send(("end",))
 
 
@@ -52,23 +54,31 @@ def _run_share(
         proc.start()
         child.close()
         current = None
+        finished = 0  # cases this worker has answered
         while True:
             if not parent.poll(timeout):
-                kind, seed = jobs[start + (current or 0)]
+                if current is None:  # between cases (starting up, cleaning up): not a hang
+                    continue
+                kind, seed = jobs[start + current]
                 results.append((kind, seed, "hang", f"no answer in {timeout:g} s"))
                 proc.kill()
-                start += (current or 0) + 1
+                start += current + 1
                 break
             try:
                 message = parent.recv()
             except EOFError:  # the worker died (a segfault, os._exit): a crash
-                kind, seed = jobs[start + (current or 0)]
+                if current is None:  # died between cases: go on after the last answered one
+                    start += finished
+                    break
+                kind, seed = jobs[start + current]
                 results.append((kind, seed, "crash", "the worker died"))
-                start += (current or 0) + 1
+                start += current + 1
                 break
             if message[0] == "start":
                 current = message[1]
             elif message[0] == "done":
+                current = None
+                finished = message[1] + 1
                 kind, seed = jobs[start + message[1]]
                 results.append((kind, seed, message[2], message[3]))
                 if time.monotonic() > deadline:
