@@ -1,7 +1,7 @@
 """The ``racc`` command line: one module per command under ``rac.commands``.
 
 Exit codes for every command (contract §7): 0 done, 1 the input is wrong,
-2 the command line is wrong, 3 no repair plan exists.
+2 the command line is wrong, 3 no repair plan exists, 70 an internal error (a bug in racc).
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ EXIT_OK = 0
 EXIT_INPUT = 1
 EXIT_USAGE = 2
 EXIT_NO_PLAN = 3
+EXIT_INTERNAL = 70  # EX_SOFTWARE of sysexits.h: a bug in racc, never a verdict on the input
 
 # Each module defines ``register(subparsers)``; its parser sets ``run``.
 COMMANDS = (
@@ -54,7 +55,9 @@ examples:
   racc check models/tedusar.ram
   racc COMMAND --help
 
-exit codes: 0 done, 1 the input is wrong, 2 the command line is wrong, 3 no repair plan exists"""
+exit codes: 0 done, 1 the input is wrong, 2 the command line is wrong, 3 no repair plan exists,
+  70 internal error (a bug in racc: please report it; --debug or RACC_DEBUG=1 shows the
+  traceback)"""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -65,6 +68,11 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"racc {__version__}")
+    parser.add_argument(
+        "--debug",
+        action="store_true",
+        help="on an internal error, print the Python traceback (also: RACC_DEBUG=1)",
+    )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMANDS:
         module = importlib.import_module(f"rac.commands.{name.replace('-', '_')}")
@@ -90,7 +98,27 @@ def main(argv: Sequence[str] | None = None) -> int:
         # /dev/null so that the interpreter's final flush does not complain either.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+    except Exception as err:
+        return internal_error(err, debug=args.debug or _env_debug())
     return code
+
+
+def _env_debug() -> bool:
+    return os.environ.get("RACC_DEBUG", "").strip() not in ("", "0")
+
+
+def internal_error(err: BaseException, *, debug: bool) -> int:
+    """Report a bug in racc: one short line (the traceback with --debug), exit 70."""
+    summary = str(err).splitlines()[0] if str(err) else ""
+    summary = summary if len(summary) <= 200 else summary[:200] + "…"
+    print(f"racc: internal error (please report): {type(err).__name__}: {summary}", file=sys.stderr)
+    if debug:
+        import traceback
+
+        traceback.print_exception(err, file=sys.stderr)
+    else:
+        print("racc: run again with --debug (or RACC_DEBUG=1) for the traceback", file=sys.stderr)
+    return EXIT_INTERNAL
 
 
 if __name__ == "__main__":

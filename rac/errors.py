@@ -43,22 +43,37 @@ class Diagnostic:
     def is_error(self) -> bool:
         return self.severity is Severity.ERROR
 
-    def render(self, source: str | None = None) -> str:
-        """``FILE:LINE:COL: error[RAC012]: message`` plus the source line and carets."""
-        head = f"{self.severity.value}[{self.code}]: {self.message}"
+    def render(self, source: str | Sequence[str] | None = None) -> str:
+        """``FILE:LINE:COL: error[RAC012]: message`` plus the source line and carets.
+
+        ``source`` is the text, or its lines when the caller renders many diagnostics of it.
+        """
+        head = f"{self.severity.value}[{self.code}]: {_clip(self.message)}"
         if self.span is None:
             lines = [head]
         else:
             lines = [f"{self.span.file}:{self.span.line}:{self.span.column}: {head}"]
             if source is not None:
-                lines.extend(_caret_lines(source, self.span))
+                text = source.splitlines() if isinstance(source, str) else source
+                lines.extend(_caret_lines(text, self.span))
         if self.hint:
-            lines.append(f"  = help: {self.hint}")
+            lines.append(f"  = help: {_clip(self.hint)}")
         return "\n".join(lines)
 
 
-def _caret_lines(source: str, span: Span) -> list[str]:
-    text = source.splitlines()
+# Rendering stays linear in the input however hostile it is: at most MAX_SHOWN diagnostics,
+# each with one source line cut to a window around its column and one caret line, and
+# messages cut short (a message may quote a megabyte-long name).
+MAX_SHOWN = 50
+_WINDOW = 120
+_MESSAGE = 400
+
+
+def _clip(text: str) -> str:
+    return text if len(text) <= _MESSAGE else text[:_MESSAGE] + f"… ({len(text):,} characters)"
+
+
+def _caret_lines(text: Sequence[str], span: Span) -> list[str]:
     if not 1 <= span.line <= len(text):
         return []
     line = text[span.line - 1].expandtabs(1)
@@ -66,8 +81,16 @@ def _caret_lines(source: str, span: Span) -> list[str]:
         width = max(1, span.end_column - span.column)
     else:
         width = max(1, len(line) - span.column + 1)
+    start = span.column - 1
+    if len(line) > _WINDOW:  # show the window around the column, marking what is cut
+        left = max(0, min(start - 20, len(line) - _WINDOW))
+        shown = line[left : left + _WINDOW]
+        prefix = "…" if left > 0 else ""
+        line = prefix + shown + ("…" if left + _WINDOW < len(line) else "")
+        start = start - left + len(prefix)
+        width = max(1, min(width, _WINDOW - (start - len(prefix))))
     gutter = f"{span.line:>4} | "
-    return [gutter + line, " " * (len(gutter) + span.column - 1) + "^" * width]
+    return [gutter + line, " " * (len(gutter) + start) + "^" * width]
 
 
 class RacError(Exception):
@@ -76,10 +99,16 @@ class RacError(Exception):
     def __init__(self, diagnostics: Sequence[Diagnostic], source: str | None = None) -> None:
         self.diagnostics = tuple(diagnostics)
         self.source = source
-        super().__init__("\n".join(d.render() for d in self.diagnostics))
+        super().__init__("\n".join(d.render() for d in self.diagnostics[:MAX_SHOWN]))
 
     def render(self) -> str:
-        return "\n".join(d.render(self.source) for d in self.diagnostics)
+        """Every diagnostic, up to :data:`MAX_SHOWN` of them, then how many more there are."""
+        lines = self.source.splitlines() if self.source is not None else None
+        shown = [d.render(lines) for d in self.diagnostics[:MAX_SHOWN]]
+        hidden = len(self.diagnostics) - MAX_SHOWN
+        if hidden > 0:
+            shown.append(f"… and {hidden} more")
+        return "\n".join(shown)
 
 
 def did_you_mean(name: str, candidates: Iterable[str]) -> str | None:
@@ -96,6 +125,10 @@ CODES: dict[str, str] = {
     "RAC004": "cannot read the model file",
     "RAC005": "invalid JSON interchange",
     "RAC006": "invalid model-server YAML",
+    # The documented limits on every input (rac/limits.py, issue 10).
+    "RAC007": "number out of range",
+    "RAC008": "name outside the documented character set",
+    "RAC009": "JSON or YAML document too deep or too large",
     "RAC010": "duplicate name",
     "RAC011": "undefined hardware",
     "RAC012": "undefined topic",

@@ -22,6 +22,13 @@ from rac.ir import (
     Related,
     Topic,
 )
+from rac.limits import (
+    MAX_DEPTH,
+    MAX_DOCUMENT_BYTES,
+    MAX_NUMBER_CHARS,
+    depth_exceeds,
+    number_problem,
+)
 
 FORMAT = "ram/1"
 
@@ -144,13 +151,25 @@ class _Reader:
         if value is None:
             return None
         got = self.typed(value, (int, float), "a number", where)
-        return float(got) if got is not None else None
+        if got is not None and self.in_range(got, where):
+            return float(got)
+        return None
 
     def integer(self, value: Any, where: str) -> int | None:
         if value is None:
             return None
         got = self.typed(value, int, "a whole number", where)
-        return int(got) if got is not None else None
+        if got is not None and self.in_range(got, where):
+            return int(got)
+        return None
+
+    def in_range(self, value: float | int, where: str) -> bool:
+        """RAC007 for NaN, infinities and huge numbers (before float() overflows on them)."""
+        problem = f"a number of {value.digits:,} digits" if isinstance(value, _LongNumber) else None
+        problem = problem or number_problem(value)
+        if problem is not None:
+            self.problems.append(Diagnostic("RAC007", f"{where}: {problem}"))
+        return problem is None
 
     def model(self, doc: Any) -> Model:
         d = self.obj(doc, "model", "document")
@@ -248,15 +267,38 @@ class _Reader:
         )
 
 
+class _LongNumber(int):
+    """An integer written with too many digits to convert (and far out of range anyway)."""
+
+    digits: int
+
+
+def _parse_int(text: str) -> int:
+    if len(text) <= MAX_NUMBER_CHARS:
+        return int(text)
+    long = _LongNumber(0)
+    long.digits = len(text.lstrip("-"))
+    return long
+
+
 def parse_json(text: str, path: str = "<json>") -> Model:
     """Read a ``ram/1`` document; every shape problem is reported at once (RAC005)."""
-    try:
-        doc = json.loads(text)
-    except json.JSONDecodeError as err:
-        from rac.errors import Span
+    from rac.errors import Span
 
+    if len(text) > MAX_DOCUMENT_BYTES:
+        message = f"the document is {len(text):,} characters long (at most {MAX_DOCUMENT_BYTES:,})"
+        raise RacError([Diagnostic("RAC009", message, Span(path, 1, 1, 1, 2))])
+    too_deep = False
+    try:
+        doc = json.loads(text, parse_int=_parse_int)
+    except json.JSONDecodeError as err:
         span = Span(path, err.lineno, err.colno, err.lineno, err.colno + 1)
         raise RacError([Diagnostic("RAC005", f"invalid JSON: {err.msg}", span)], text) from None
+    except RecursionError:
+        too_deep = True  # far deeper than MAX_DEPTH: the decoder ran out of stack
+    if too_deep or depth_exceeds(doc):
+        message = f"lists and objects nest more than {MAX_DEPTH} deep"
+        raise RacError([Diagnostic("RAC009", message, Span(path, 1, 1, 1, 2))])
     reader = _Reader(path)
     model = reader.model(doc)
     if reader.problems:

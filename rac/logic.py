@@ -54,21 +54,32 @@ class Clause:
         return f"{', '.join(str(a) for a in self.body)} -> {self.head}"
 
 
-_ATOM = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\(\s*([^()]*?)\s*\))?\s*$")
+# Linear time on any text: each pattern is a single character class repeated, matched at a
+# known position, and the rest is plain string work (no backtracking over untrusted text).
+_PREDICATE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+_ARGUMENT = re.compile(r"[A-Za-z0-9_]+")
 
 
 def parse_atom(text: str) -> Atom:
     """Parse ``ok(pose)``, ``ok(n, cpu)`` or a bare proposition such as ``false``."""
-    match = _ATOM.match(text)
+    stripped = text.strip()
+    match = _PREDICATE.match(stripped)
     if match is None:
-        raise ValueError(f"not an atom: {text!r}")
-    pred, args = match.group(1), match.group(2)
-    if args is None:
+        raise ValueError(f"not an atom: {_shown(text)}")
+    pred, rest = match.group(), stripped[match.end() :].lstrip()
+    if not rest:
         return Atom(pred)
-    parts = tuple(a.strip() for a in args.split(","))
-    if any(not re.fullmatch(r"[A-Za-z0-9_]+", p) for p in parts):
-        raise ValueError(f"not an atom: {text!r}")
+    if rest[0] != "(" or rest[-1] != ")" or "(" in rest[1:] or ")" in rest[:-1]:
+        raise ValueError(f"not an atom: {_shown(text)}")
+    parts = tuple(a.strip() for a in rest[1:-1].split(","))
+    if any(_ARGUMENT.fullmatch(p) is None for p in parts):
+        raise ValueError(f"not an atom: {_shown(text)}")
     return Atom(pred, parts)
+
+
+def _shown(text: str) -> str:
+    """``text`` quoted for a message, cut short when it is long."""
+    return repr(text) if len(text) <= 80 else repr(text[:80]) + f"… ({len(text):,} characters)"
 
 
 def split_body(text: str) -> list[str]:
@@ -88,7 +99,7 @@ def split_body(text: str) -> list[str]:
     if stripped == [""]:
         return []  # an empty body: a fact
     if "" in stripped:
-        raise ValueError(f"an empty atom between commas: {text!r}")
+        raise ValueError(f"an empty atom between commas: {_shown(text)}")
     return stripped
 
 
@@ -96,6 +107,6 @@ def parse_clause(text: str) -> Clause:
     """Parse ``A, B -> C`` (the model server's rule syntax)."""
     body_text, arrow, head_text = text.partition("->")
     if not arrow:
-        raise ValueError(f"a rule needs '->': {text!r}")
+        raise ValueError(f"a rule needs '->': {_shown(text)}")
     body = tuple(parse_atom(a) for a in split_body(body_text))
     return Clause(body, parse_atom(head_text))

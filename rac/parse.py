@@ -7,12 +7,19 @@ from __future__ import annotations
 
 import bisect
 import functools
+import math
 from dataclasses import replace
 from importlib import resources
 from typing import Any
 
 from lark import Lark, Token, Transformer, Tree, v_args
-from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+from lark.exceptions import (
+    UnexpectedCharacters,
+    UnexpectedEOF,
+    UnexpectedInput,
+    UnexpectedToken,
+    VisitError,
+)
 from lark.tree import Meta
 
 from rac.errors import Diagnostic, RacError, Span, did_you_mean
@@ -29,6 +36,7 @@ from rac.ir import (
     Related,
     Topic,
 )
+from rac.limits import number_text_problem, ram_number_problems
 from rac.perf import paused_gc
 
 # What each terminal means to a user, for "expected ..." messages.
@@ -127,12 +135,16 @@ def _end_position(text: str) -> tuple[int, int]:
 
 def parse_ram(text: str, path: str = "<string>") -> Model:
     """Parse a ``.ram`` source into a :class:`Model` (not yet validated)."""
+    # Numbers out of range are reported before parsing: the parsers convert them.
+    out_of_range = ram_number_problems(text, path)
+    if out_of_range:
+        raise RacError(out_of_range, text)
     with paused_gc():
         try:
             # The hand-written reader of valid models is an order of magnitude faster;
             # Lark stays the definition of the language and of every syntax error.
             model, comments = fast_parse(text, path)
-        except Bail:
+        except (Bail, OverflowError, ValueError):  # a number glued to a keyword: Lark says
             model, comments = _parse_with_lark(text, path)
         model = _attach_comments(model, comments)
         return replace(model, source=text)
@@ -144,7 +156,14 @@ def _parse_with_lark(text: str, path: str) -> tuple[Model, list[Token]]:
         tree = _parse_with_comments(text, comments)
     except UnexpectedInput as err:
         raise RacError([_parse_error(err, path, text)], text) from None
-    model = _Lower(path).transform(tree)
+    try:
+        model = _Lower(path).transform(tree)
+    except VisitError as err:
+        if not isinstance(err.orig_exc, _OutOfRange):
+            raise
+        bad = err.orig_exc
+        message = f"number {str(bad.token)[:20]}: {bad.problem}"
+        raise RacError([Diagnostic("RAC007", message, _span(path, bad.token))], text) from None
     assert isinstance(model, Model)
     return model, comments
 
@@ -180,8 +199,30 @@ def _commented_parser() -> Lark:
     )
 
 
+class _OutOfRange(Exception):
+    """A number the pre-scan could not see (glued to a keyword: ``mem1e400``)."""
+
+    def __init__(self, token: Token, problem: str) -> None:
+        super().__init__(problem)
+        self.token, self.problem = token, problem
+
+
 def _number(token: Token) -> float:
-    return float(token)
+    return float(token)  # inf when out of range: the validation pass reports it (RAC007)
+
+
+def _integer(token: Token) -> int:
+    problem = number_text_problem(str(token))
+    if problem is not None:  # int() refuses thousands of digits
+        raise _OutOfRange(token, problem)
+    return int(token)
+
+
+def _bytes(token: Token, unit: Token) -> int:
+    value = _number(token) * MEM_UNITS[str(unit)]
+    if not math.isfinite(value):  # round() refuses infinities
+        raise _OutOfRange(token, number_text_problem(str(token)) or "not a finite number")
+    return round(value)
 
 
 @v_args(meta=True)
@@ -226,7 +267,7 @@ class _Lower(Transformer[Token, Any]):
         return ("switchable", None)
 
     def channel(self, meta: Meta, children: list[Token]) -> tuple[str, int]:
-        return ("channel", int(children[0]))
+        return ("channel", _integer(children[0]))
 
     # topics --------------------------------------------------------------
     def topic(self, meta: Meta, children: list[Any]) -> Topic:
@@ -261,7 +302,7 @@ class _Lower(Transformer[Token, Any]):
         return ("window", _number(value) / (1000.0 if unit == "ms" else 1.0))
 
     def mismatch(self, meta: Meta, children: list[Token]) -> tuple[str, int]:
-        return ("mismatch", int(children[0]))
+        return ("mismatch", _integer(children[0]))
 
     # nodes ---------------------------------------------------------------
     def node(self, meta: Meta, children: list[Any]) -> Node:
@@ -320,7 +361,7 @@ class _Lower(Transformer[Token, Any]):
 
     def mem_limit(self, meta: Meta, children: list[Token]) -> tuple[str, int]:
         value, unit = children
-        return ("mem", round(_number(value) * MEM_UNITS[str(unit)]))
+        return ("mem", _bytes(value, unit))
 
     # relations -----------------------------------------------------------
     def _field_ref(self, side: Token | FieldRef) -> FieldRef:

@@ -26,7 +26,7 @@ TEDUSAR = ROOT / "models" / "tedusar.ram"
 # The codes issue 2 asks a golden for (RAC004, RAC006, RAC013 and RAC04x are covered elsewhere
 # or belong to other commands).
 REQUIRED = {
-    "RAC001", "RAC002", "RAC003", "RAC005",
+    "RAC001", "RAC002", "RAC003", "RAC005", "RAC007", "RAC008", "RAC009",
     "RAC010", "RAC011", "RAC012", "RAC014", "RAC015",
     "RAC020", "RAC021", "RAC022", "RAC023", "RAC024", "RAC025", "RAC026", "RAC027",
     "RAC028", "RAC029", "RAC030", "RAC031",

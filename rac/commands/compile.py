@@ -32,7 +32,8 @@ def register(sub: Any) -> None:
         "compile a model into the diagnosis and repair artefacts",
         f"Compile MODEL (.ram or ram/1 .json) and write into DIR: {names}, and "
         "architecture.svg when Graphviz is installed. "
-        "Nothing is written when the model has errors.",
+        "Nothing is written when the model has errors, and DIR is replaced as a whole: all "
+        "files change or none does. Files in DIR that racc does not write are kept.",
         "  racc compile models/tedusar.ram -o build/tedusar\n"
         "  racc compile robot.json -o out --ros-package my_observers --no-svg",
     )
@@ -91,7 +92,8 @@ def run(args: argparse.Namespace) -> int:
         else:
             files["architecture.svg"] = svg
     out = Path(args.output)
-    write_files_atomically(out, files)
+    owned = [t.filename for t in targets()] + ["architecture.svg"]
+    write_files_atomically(out, files, owned)
     if not args.quiet:
         model = compiled.model
         print(

@@ -70,10 +70,12 @@ class Index:
             self._intern(atom.predicate, atom.args)
         self.nab_id = {c: self._intern(theory.nab, (c,)) for c in theory.components}
         self.ab_id = {c: self._intern(theory.ab, (c,)) for c in theory.components}
-        for key in list(self.keys):  # so that every observable negation has an id
-            other = self._complement_key(key)
+        done = 0
+        while done < len(self.keys):  # so that every complement has an id (to a fixpoint:
+            other = self._complement_key(self.keys[done])  # not_not_a -> not_a -> a)
             if other is not None:
                 self._intern(*other)
+            done += 1
         self.false_id = self.ids.get((FALSE, ()), -1)
         self.complement = [-1] * len(self.keys)
         for i, key in enumerate(self.keys):

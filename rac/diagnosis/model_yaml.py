@@ -5,10 +5,13 @@ The file is composed (not just loaded) so that every problem names its line and 
 
 from __future__ import annotations
 
+import re
+
 import yaml
 
 from rac.diagnosis.theory import Theory, components_of
 from rac.errors import Diagnostic, RacError, Span, did_you_mean
+from rac.limits import MAX_YAML_BYTES, YamlLimit, compose_yaml
 from rac.logic import AB, FALSE, NAB, NEG_PREFIX, Atom, Clause, parse_atom, parse_clause
 
 KEYS = ("ab", "nab", "neg_prefix", "props", "rules")
@@ -46,10 +49,36 @@ def _check_assumption(
         errors.append(_error(file, node, f"'{atom}' must name exactly one component"))
 
 
+def _name_problems(
+    file: str, values: dict[str, yaml.Node], names: dict[str, str]
+) -> list[Diagnostic]:
+    """ab, nab and neg_prefix are identifiers that cannot be mistaken for one another."""
+    found: list[Diagnostic] = []
+    for key, value in names.items():
+        pattern = r"[A-Za-z_][A-Za-z0-9_]*"
+        if re.fullmatch(pattern, value) is None:
+            found.append(_error(file, values.get(key), f"'{key}' must be an identifier"))
+    ab, nab, neg = names["ab"], names["nab"], names["neg_prefix"]
+    if ab == nab:
+        found.append(_error(file, values.get("nab"), "'ab' and 'nab' must differ"))
+    for key in ("ab", "nab"):
+        if names[key].startswith(neg) or names[key] == FALSE:
+            message = f"'{key}' must not start with the negation prefix '{neg}' nor be 'false'"
+            found.append(_error(file, values.get(key), message))
+    return found
+
+
 def parse_model_yaml(text: str, file: str) -> Theory:
     """The theory of a model-server file; RacError RAC006 with every problem found."""
+    if len(text) > MAX_YAML_BYTES:
+        message = f"the file is {len(text):,} characters long (at most {MAX_YAML_BYTES:,})"
+        raise RacError([Diagnostic("RAC009", message, Span(file, 1, 1, 1, 2))])
     try:
-        root = yaml.compose(text, Loader=yaml.SafeLoader)
+        root = compose_yaml(text)
+    except YamlLimit as err:
+        line, column = err.mark.line + 1, err.mark.column + 1
+        where = Span(file, line, column, line, column + 1)
+        raise RacError([Diagnostic("RAC009", err.message, where)], text) from None
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         span = (
@@ -83,6 +112,7 @@ def parse_model_yaml(text: str, file: str) -> Theory:
             elif value is not None:
                 errors.append(_error(file, values[key], f"'{key}' must not be empty"))
     ab, nab = names["ab"], names["nab"]
+    errors.extend(_name_problems(file, values, names))
     if "rules" not in values:
         errors.append(_error(file, root, "missing key 'rules'"))
     props: list[Atom] = []
@@ -95,6 +125,7 @@ def parse_model_yaml(text: str, file: str) -> Theory:
         except ValueError:
             errors.append(_error(file, item, f"not an atom: {text_value!r}"))
     clauses: list[Clause] = []
+    negated_assumptions = {names["neg_prefix"] + ab, names["neg_prefix"] + nab}
     for item in _items(file, values["rules"], "rules", errors) if "rules" in values else []:
         text_value = _scalar(file, item, "a rule", errors)
         if text_value is None:
@@ -106,6 +137,9 @@ def parse_model_yaml(text: str, file: str) -> Theory:
             continue
         for atom in (*clause.body, clause.head):
             _check_assumption(file, item, atom, ab, nab, errors)
+            if atom.predicate in negated_assumptions:
+                message = f"'{atom}' negates an assumption; write '{ab}(…)' or '{nab}(…)'"
+                errors.append(_error(file, item, message))
         if clause.head == Atom(FALSE) and not clause.body:
             errors.append(_error(file, item, "'-> false' makes every observation inconsistent"))
         clauses.append(clause)

@@ -22,6 +22,7 @@ from typing import Any
 import yaml
 
 from rac.errors import Diagnostic, RacError
+from rac.limits import MAX_YAML_BYTES, YamlLimit, compose_yaml
 
 INFRASTRUCTURE_TOPICS = frozenset({"/rosout", "/rosout_agg", "/parameter_events", "/clock"})
 _NODE_KEYS = {
@@ -72,8 +73,13 @@ def _names(value: Any, path: str, where: str) -> tuple[str, ...]:
 
 
 def parse_graph(text: str, path: str) -> Graph:
+    if len(text) > MAX_YAML_BYTES:
+        raise _bad(path, f"the file is {len(text):,} characters long (at most {MAX_YAML_BYTES:,})")
     try:
-        doc = yaml.safe_load(text)
+        compose_yaml(text)  # the limits first (depth, aliases): then loading is safe
+        doc = yaml.load(text, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
+    except YamlLimit as err:
+        raise _bad(path, f"line {err.mark.line + 1}: {err.message}") from None
     except yaml.YAMLError as err:
         raise _bad(path, f"not YAML: {err}") from None
     if not isinstance(doc, dict) or not isinstance(doc.get("nodes"), dict):

@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,6 +37,15 @@ def parse_properties(text: str, path: str) -> dict[str, dict[str, list[float]]]:
         hint = f"the file needs the header {','.join(COLUMNS)} and one sample per line"
         return RacError([Diagnostic("RAC082", f"{path}:{line}: {why}", hint=hint)])
 
+    try:
+        return _read_properties(text, bad)
+    except csv.Error as err:  # a field beyond csv's size limit, a NUL byte, …
+        raise bad(0, f"not CSV: {err}") from None
+
+
+def _read_properties(
+    text: str, bad: Callable[[int, str], RacError]
+) -> dict[str, dict[str, list[float]]]:
     reader = csv.reader(io.StringIO(text))
     header = next(reader, None)
     if header is None or [h.strip() for h in header] != list(COLUMNS):

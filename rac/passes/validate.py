@@ -7,13 +7,16 @@ warnings do not.
 
 from __future__ import annotations
 
+import math
 import re
 from collections import defaultdict
 from collections.abc import Callable, Iterable, Iterator
 
 from rac.errors import Diagnostic, Severity, Span, did_you_mean
 from rac.ir import FieldRef, Model, Name
+from rac.limits import MAX_NAME, name_problem, number_problem, shown_name
 from rac.logic import integral_arg, mangle
+from rac.passes.observers import gobs_params
 
 Rule = Callable[[Model], Iterable[Diagnostic]]
 
@@ -44,6 +47,36 @@ def check_names(model: Model) -> Iterator[Diagnostic]:
         if not _DEVICE_NAME.fullmatch(name.value):
             hint = "use letters, digits, '_' and '-', starting with a letter or '_'"
             yield _error("RAC028", f"invalid {kind} name '{name.value}'", name.span, hint)
+    yield from _check_name_sets(model)
+
+
+def _check_name_sets(model: Model) -> Iterator[Diagnostic]:
+    """Every name within its documented character set and length (RAC008).
+
+    Node, topic, hardware and robot names are checked above (RAC028), and only for length
+    here; fields, message types and reported devices have their own sets.
+    """
+    for name in [
+        model.name,
+        *(h.name for h in model.hardware),
+        *(n.name for n in model.nodes),
+        *(t.name for t in model.topics),
+    ]:
+        if len(name.value) > MAX_NAME:
+            message = f"name {shown_name(name.value)} is too long (at most {MAX_NAME} characters)"
+            yield _error("RAC008", message, name.span)
+    typed: list[tuple[str, Name]] = [
+        *(("field", f) for t in model.topics for f in t.fields),
+        *(("device", d) for n in model.nodes for d in n.diagnostics),
+    ]
+    typed.extend(
+        ("message type", Name(t.msg_type, t.span)) for t in model.topics if t.msg_type is not None
+    )
+    for kind, name in typed:
+        problem = name_problem(kind, name.value)
+        if problem is not None:
+            message = f"{kind} name {shown_name(name.value)} {problem}"
+            yield _error("RAC008", message, name.span)
 
 
 def check_duplicates(model: Model) -> Iterator[Diagnostic]:
@@ -211,6 +244,46 @@ def check_channels(model: Model) -> Iterator[Diagnostic]:
             owners.setdefault(hw.channel, hw.name.value)
 
 
+def check_ranges(model: Model) -> Iterator[Diagnostic]:
+    """Every number within the documented limits (RAC007), whichever format it came from."""
+    found: list[tuple[str, float | int | None, Span | None]] = []
+    for t in model.topics:
+        name = t.name.value
+        found += [
+            (f"topic '{name}': rate", t.rate_hz, t.span),
+            (f"topic '{name}': tolerance", t.rate_tolerance_hz, t.span),
+            (f"topic '{name}': window", t.window_s, t.span),
+            (f"topic '{name}': mismatch", t.mismatch_threshold, t.span),
+        ]
+    for n in model.nodes:
+        found += [
+            (f"node '{n.name.value}': cpu limit", n.limits.cpu, n.limits.span),
+            (f"node '{n.name.value}': memory limit (in bytes)", n.limits.mem, n.limits.span),
+        ]
+    found += [(f"hardware '{h.name.value}': channel", h.channel, h.span) for h in model.hardware]
+    found += [("an interval's 'within' bound", iv.max_diff, iv.span) for iv in model.intervals]
+    bad = False
+    for what, value, span in found:
+        problem = number_problem(value) if value is not None else None
+        if value is not None and problem is not None:
+            bad = True
+            shown = f"{value:g}" if abs(value) < 1e300 else "(a huge number)"
+            yield _error("RAC007", f"{what} {shown} is {problem}", span)
+    if bad:
+        return
+    for t in model.topics:  # a tiny rate (or rate - tolerance) has no finite period
+        tol = t.rate_tolerance_hz
+        if t.rate_hz is None or t.rate_hz <= 0 or (tol is not None and not 0 <= tol < t.rate_hz):
+            continue  # check_values reports these
+        params = gobs_params(t)
+        if any(isinstance(v, float) and not math.isfinite(v) for _, v in params):
+            message = (
+                f"topic '{t.name.value}': rate {t.rate_hz:g} Hz is too close to 0 "
+                "(or to its tolerance): its period is not a finite number"
+            )
+            yield _error("RAC007", message, t.span)
+
+
 def check_values(model: Model) -> Iterator[Diagnostic]:
     """Rates, limits and thresholds are positive and consistent."""
     for t in model.topics:
@@ -349,6 +422,7 @@ RULES: tuple[Rule, ...] = (
     check_field_pairs,
     check_interval_sides,
     check_channels,
+    check_ranges,
     check_values,
     check_mangling,
     check_usage,
