@@ -34,6 +34,13 @@ COMMANDS = (
     "board-sim",
     "learn",
     "synth",
+    "observe",
+    "engine",
+    "repairer",
+    "board-client",
+    "record",
+    "demo",
+    "ros-package",
 )
 
 DESCRIPTION = """\
