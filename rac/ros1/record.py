@@ -12,7 +12,7 @@ import psutil
 from rosbags.rosbag1 import Writer
 
 from rac.ros1.common import connection_type, require_ros, resolve_pid, system_state
-from rac.runtime.record import graph_yaml, properties_rows
+from rac.runtime.record import graph_yaml, properties_rows, robot_node
 
 DISCOVER_S = 0.5
 PROPERTY_HZ = 2.0
@@ -23,7 +23,7 @@ def run_record(
 ) -> tuple[int, int]:
     """(messages, topics) recorded."""
     rospy = require_ros()
-    rospy.init_node(name, anonymous=True)
+    rospy.init_node(name, anonymous=True)  # racc_recorder_*: left out of its own graph
     me = rospy.get_name()
     lock = threading.Lock()
     writer = Writer(bag)
@@ -63,7 +63,8 @@ def run_record(
         if now >= next_discover:
             pubs, subs, _ = system_state()
             for topic, _names in pubs:
-                if topic not in subscribed and topic not in ("/rosout", "/rosout_agg"):
+                robot = any(robot_node(n) for n in _names)
+                if topic not in subscribed and robot and topic not in ("/rosout", "/rosout_agg"):
                     subscribed[topic] = rospy.Subscriber(
                         topic, rospy.AnyMsg, on_message, callback_args=topic, queue_size=200
                     )
@@ -72,7 +73,7 @@ def run_record(
             names = sorted({n for _, ns in pubs for n in ns} | {n for _, ns in subs for n in ns})
             samples = []
             for node in names:
-                if node == me or node.startswith("/rosout"):
+                if node == me or not robot_node(node):
                     continue
                 proc = procs.get(node)
                 if proc is None or not proc.is_running():

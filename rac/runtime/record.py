@@ -9,6 +9,12 @@ import yaml
 
 from rac.learn.graph import INFRASTRUCTURE_TOPICS
 
+RACC_PREFIX = "/racc_"  # racc's own nodes (runtime, recorder, tools) are not the robot's
+
+
+def robot_node(name: str) -> bool:
+    return not name.startswith(RACC_PREFIX) and not name.startswith("/rosout")
+
 
 def graph_yaml(
     publishers: Sequence[tuple[str, Sequence[str]]],
@@ -23,7 +29,7 @@ def graph_yaml(
             if topic in INFRASTRUCTURE_TOPICS:
                 continue
             for name in names:
-                if name in skip or name.startswith("/rosout"):
+                if name in skip or not robot_node(name):
                     continue
                 entry = nodes.setdefault(name, {"publications": set(), "subscriptions": set()})
                 entry[key].add(topic)
