@@ -15,6 +15,8 @@ from rac.runtime.diagnoser import Diagnoser, diagnosis_line
 from rac.runtime.status import row_verdict
 
 DIAGNOSIS = "/diagnosis"
+POLL_S = 0.05
+MIN_GAP_S = 0.2  # between diagnoses triggered by changed observations
 
 
 def _stamp(path: str) -> tuple[float, int] | None:
@@ -82,8 +84,16 @@ def run_engine(
     rospy.loginfo(
         "racc engine: %s, %d components, %.3g Hz", path, len(diagnoser.theory.components), rate_hz
     )
-    rate = rospy.Rate(rate_hz)
+    period = 1.0 / rate_hz
+    last = 0.0
     while not rospy.is_shutdown():
+        time.sleep(min(POLL_S, period))
+        now = time.time()
+        with lock:
+            due = now - last >= period or (diagnoser.pending and now - last >= MIN_GAP_S)
+        if not due:
+            continue
+        last = now
         request = state["request"]
         if request:
             state["request"] = ""
@@ -96,7 +106,3 @@ def run_engine(
             rospy.loginfo(diagnosis_line(time.time(), tick.result))
         pub.publish(to_array(tick.rows))
         summary.publish(to_array([tick.summary]))
-        try:
-            rate.sleep()
-        except rospy.ROSInterruptException:
-            break

@@ -1,7 +1,9 @@
 """The diagnosis node's logic (§6.3, §6.4): Algorithm 10's collection, then minimal diagnoses.
 
 Observations are merged into Θ as they come (:class:`rac.observe.ObservationSet`); on each
-tick the engine diagnoses Θ again if it or the model changed since the last tick.  The model
+tick the engine diagnoses Θ again if it or the model changed since the last tick.  A
+transport ticks at its publication rate, and sooner when Θ changes (:attr:`pending`), so
+that a new fault does not wait for the next period.  The model
 can be replaced at run time (§6.3's model server permits changes): Θ is kept and the next
 tick diagnoses it against the new theory.
 """
@@ -49,6 +51,11 @@ class Diagnoser:
         changed = self.observations.add(verdict)
         self._dirty |= changed
         return changed
+
+    @property
+    def pending(self) -> bool:
+        """Θ or the model changed since the last tick."""
+        return self._dirty
 
     def tick(self) -> Tick:
         result = self._last

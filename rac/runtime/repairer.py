@@ -51,6 +51,7 @@ class Actuator(Protocol):
 
 @dataclass(frozen=True, slots=True)
 class Settings:
+    confirm_s: float = 0.5  # a diagnosis must stand this long (a blip is not repaired)
     step_timeout_s: float = 5.0  # for an effect to show
     unobservable_pause_s: float = 1.0  # an effect no observer reports is assumed after this
     verify_timeout_s: float = 10.0  # for the engine to publish "no fault" after a plan
@@ -104,6 +105,7 @@ class RepairExecutor:
         self.plan: tuple[Step, ...] = ()
         self._diagnoses: tuple[tuple[str, ...], ...] | None = ()
         self._diagnosis_t = float("-inf")
+        self._since = float("-inf")  # when the diagnoses last changed
         self._quiet_until = float("-inf")
         self._step = 0
         self._attempt = 0
@@ -121,8 +123,11 @@ class RepairExecutor:
 
     def diagnosis(self, diagnoses: tuple[tuple[str, ...], ...] | None) -> None:
         """The engine's latest diagnoses (empty: no fault; None: nothing explains Θ)."""
+        now = self.clock()
+        if diagnoses != self._diagnoses:
+            self._since = now
         self._diagnoses = diagnoses
-        self._diagnosis_t = self.clock()
+        self._diagnosis_t = now
 
     # -- the loop ------------------------------------------------------------------------
     def tick(self) -> None:
@@ -140,6 +145,8 @@ class RepairExecutor:
     def _maybe_plan(self, now: float) -> None:
         diagnoses = self._diagnoses
         if not diagnoses or self._diagnosis_t < self._quiet_until:
+            return
+        if now - self._since < self.settings.confirm_s:
             return
         shown = " | ".join("{" + ",".join(d) + "}" for d in diagnoses)
         result = DiagnosisResult(False, (), diagnoses, self.theory.components, False)

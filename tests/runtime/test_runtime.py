@@ -211,3 +211,17 @@ def test_observers_yaml_errors(tmp_path: Path) -> None:
     with pytest.raises(RacError) as err:
         load_observers(bad)
     assert err.value.diagnostics[0].code == "RAC056"
+
+
+def test_without_ros_the_nodes_say_how_to_get_it(
+    build: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import importlib.util
+
+    if importlib.util.find_spec("rospy") is not None:
+        pytest.skip("rospy is importable here")
+    from rac.cli import main
+
+    assert main(["engine", str(build / "model.yaml")]) == 1
+    err = capsys.readouterr().err
+    assert "RAC057" in err and "--system-site-packages" in err
