@@ -40,6 +40,13 @@ COMMANDS = (
     "analyze",
     "place",
     "import-model",  # `racc import`: `import` cannot name a module
+    "observe",
+    "engine",
+    "repairer",
+    "board-client",
+    "record",
+    "demo",
+    "ros-package",
 )
 
 DESCRIPTION = """\

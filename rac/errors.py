@@ -153,6 +153,11 @@ CODES: dict[str, str] = {
     # Observers (chapter 5).
     "RAC050": "invalid observer specification",
     "RAC051": "invalid observer parameter value",
+    # The live runtime (issue 13): ROS 1 nodes, demo robot, recorder.
+    "RAC056": "invalid observers.yaml",
+    "RAC057": "ROS 1 is not available to this Python",
+    "RAC058": "no ROS master",
+    "RAC059": "cannot load the robot's launch file",
     # Repair (chapter 7, issue 4): the repair commands exit 3 on RAC070-RAC075, RAC077, RAC078.
     # Analysis, placement and import (issue 12).
     "RAC060": "a fault mode or command needs a .ram or .json model",
@@ -184,6 +189,12 @@ CODES: dict[str, str] = {
     "RAC084": "output already exists",
     "RAC085": "invalid faults file (ground truth)",
     "RAC086": "ground truth does not fit the recording or the model",
+    "RAC110": "a repair step did not take effect (escalated)",
+    "RAC111": "a node cannot be restarted from the launch file",
+    "RAC112": "unknown repair action",
+    "RAC113": "invalid demo fault or node",
+    "RAC114": "no board client for a switch",
+    "RAC115": "the demo robot's roslaunch ended early",
     "RAC100": "subscribed topic has no publisher",
     "RAC101": "hardware driven by no node",
     "RAC102": "node with no topics",

@@ -47,7 +47,8 @@ def test_window_is_that_of_the_slower_regular_topic(biqobs: list[dict[str, objec
 
 def test_launch_file_writes_booleans_as_ros_reads_them() -> None:
     compiled = compile_model(parse_ram(MODEL, "r.ram"))
-    text = emit_launch_ros1(compiled, EmitOptions())
+    # The dissertation's stack takes each observer's parameters as <param>s.
+    text = emit_launch_ros1(compiled, EmitOptions(observers_package="tug_ist_diagnosis_observers"))
     assert '<param name="integral1" value="true"/>' in text
     assert '<param name="integral2" value="false"/>' in text
     assert "True" not in text and "False" not in text

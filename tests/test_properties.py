@@ -35,7 +35,19 @@ def domain_parser() -> DomainParser:
 
 def compile_text(text: str) -> dict[str, str]:
     compiled = compile_model(parse_ram(text, "random.ram"))
-    return {t.filename: t.emit(compiled, EmitOptions()) for t in targets()}
+    files = {t.filename: t.emit(compiled, EmitOptions()) for t in targets()}
+    stack = EmitOptions(observers_package="tug_ist_diagnosis_observers")
+    files["stack.launch"] = next(t for t in targets() if t.name == "ros1").emit(compiled, stack)
+    return files
+
+
+def check_runtime_launch(text: str, switchable: bool) -> None:
+    """racc's runtime: observer host, engine, repairer, and the board client with hardware."""
+    root = etree.fromstring(text.encode("utf-8"))
+    types = sorted(n.get("type") for n in root.findall("node"))
+    expected = ["engine", "observe", "repairer"] + (["board_client"] if switchable else [])
+    assert types == sorted(expected)
+    assert all(n.get("pkg") == "racc" for n in root.findall("node"))
 
 
 def check_launch(text: str, kind_attr: str, observers: list[dict[str, Any]]) -> None:
@@ -101,7 +113,8 @@ def test_random_models_compile_and_every_output_parses(model: Model) -> None:
     reported = [a for o in observers for a in o["reports"]]
     assert set(reported) == set(diagnosis["props"])
 
-    check_launch(files["observers.launch"], "type", observers)
+    check_runtime_launch(files["observers.launch"], any(h.switchable for h in model.hardware))
+    check_launch(files["stack.launch"], "type", observers)
     check_launch(files["observers.launch.xml"], "exec", observers)
 
     domain = domain_parser()(files["repair_domain.pddl"])

@@ -44,14 +44,15 @@ def register(sub: Any) -> None:
     parser.add_argument(
         "--ros-package",
         metavar="PKG",
-        default=DEFAULT_OBSERVERS_PACKAGE,
-        help="ROS package holding the observer executables (default: %(default)s)",
+        help="ROS package holding one executable per observer kind (NObs.py, GObs.py, ...): "
+        "observers.launch then starts the dissertation's stack instead of racc's runtime "
+        f"(ROS 2 launch file: default {DEFAULT_OBSERVERS_PACKAGE})",
     )
     parser.add_argument(
         "--model-server-package",
         metavar="PKG",
-        default=DEFAULT_MODEL_SERVER_PACKAGE,
-        help="ROS package of diagnosis_model_server.py (default: %(default)s)",
+        help="ROS package of diagnosis_model_server.py, for the dissertation's stack "
+        f"(default with --ros-package: {DEFAULT_MODEL_SERVER_PACKAGE})",
     )
     parser.add_argument("--no-svg", action="store_true", help="do not render architecture.svg")
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")

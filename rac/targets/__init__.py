@@ -19,10 +19,28 @@ DEFAULT_MODEL_SERVER_PACKAGE = "tug_ist_diagnosis_model"
 
 @dataclass(frozen=True, slots=True)
 class EmitOptions:
-    """Knobs a user may turn from the command line."""
+    """Knobs a user may turn from the command line.
 
-    observers_package: str = DEFAULT_OBSERVERS_PACKAGE
-    model_server_package: str = DEFAULT_MODEL_SERVER_PACKAGE
+    With neither package given, the ROS 1 launch file starts racc's own runtime (the
+    ``racc`` ROS package); naming either one selects the dissertation's stack of one node
+    per observer and a model server, with the other package at its default.  The ROS 2
+    launch file always names the stack's executables (there is no ROS 2 runtime yet).
+    """
+
+    observers_package: str | None = None
+    model_server_package: str | None = None
+
+    @property
+    def stack(self) -> bool:
+        return self.observers_package is not None or self.model_server_package is not None
+
+    @property
+    def observers(self) -> str:
+        return self.observers_package or DEFAULT_OBSERVERS_PACKAGE
+
+    @property
+    def model_server(self) -> str:
+        return self.model_server_package or DEFAULT_MODEL_SERVER_PACKAGE
 
 
 Emitter = Callable[[Compiled, EmitOptions], str]

@@ -40,7 +40,7 @@ def observer_nodes(compiled: Compiled, options: EmitOptions) -> Callable[[str], 
     if tails is None:
         tails = compiled.memo[key] = _node_tails(compiled)
     assert isinstance(tails, list)
-    opening = f"\n  <node pkg={xmlattr(options.observers_package)} "
+    opening = f"\n  <node pkg={xmlattr(options.observers)} "
     return lambda attribute: (opening + attribute).join(tails)
 
 
@@ -104,8 +104,20 @@ def render_launch(template: str, compiled: Compiled, options: EmitOptions) -> st
     return render(
         template,
         robot=compiled.model.name.value,
-        model_package=options.model_server_package,
+        model_package=options.model_server,
         model_executable=MODEL_SERVER_EXECUTABLE,
         model_name=MODEL_SERVER_NAME,
         observer_nodes=observer_nodes(compiled, options),
+    )
+
+
+def render_runtime_launch(compiled: Compiled) -> str:
+    """A ROS 1 launch file starting racc's runtime: the observer host, the diagnosis
+    engine, the repair engine and, with switchable hardware, the board client."""
+    board = any(h.switchable for h in compiled.model.hardware)
+    return render(
+        "runtime.launch.j2",
+        robot=compiled.model.name.value,
+        board=board,
+        observers=len(compiled.observers),
     )

@@ -1,11 +1,14 @@
-"""observers.launch: ROS 1 roslaunch XML starting the model server and every observer."""
+"""observers.launch: ROS 1 roslaunch XML starting racc's runtime, or (with a package named)
+the dissertation's model server and one node per observer."""
 
 from __future__ import annotations
 
 from rac.pipeline import Compiled
 from rac.targets import EmitOptions
-from rac.targets.launch_common import render_launch
+from rac.targets.launch_common import render_launch, render_runtime_launch
 
 
 def emit_launch_ros1(compiled: Compiled, options: EmitOptions) -> str:
+    if not options.stack:
+        return render_runtime_launch(compiled)
     return render_launch("observers.launch.j2", compiled, options)

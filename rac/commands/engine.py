@@ -1,0 +1,44 @@
+"""``racc engine``: the diagnosis node (model server and engine, §6.3 and §6.4)."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from rac.commands.common import add_command
+from rac.diagnosis import load_theory
+from rac.repair import robot_name
+
+
+def register(sub: Any) -> None:
+    parser = add_command(
+        sub,
+        "engine",
+        "run the diagnosis engine as a ROS 1 node",
+        "Collect /observations as Algorithm 10 does and publish the minimal diagnoses of MODEL "
+        "(model.yaml, .ram or .json) on /diagnosis (one status per diagnosis, none when "
+        "healthy) and a summary on /diagnostics, RATE times a second. The model is reloaded "
+        "when its file changes, or on a message to ~reload (std_msgs/String: a path, or empty "
+        "for the same file), without a restart. Needs ROS 1 (rospy).",
+        "  racc engine build/tedusar/model.yaml\n"
+        "  racc engine build/tedusar/model.yaml --rate 2 --max-card 2\n"
+        "  rostopic pub -1 /racc_engine/reload std_msgs/String ''",
+    )
+    parser.add_argument("model", metavar="MODEL", help="model.yaml (or .ram/.json)")
+    parser.add_argument("--rate", type=float, default=1.0, help="diagnoses per second (1)")
+    parser.add_argument("--max-card", type=int, help="largest diagnosis searched (default: all)")
+    parser.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from rac.ros1.engine import run_engine
+
+    theory = load_theory(args.model)  # errors before any ROS work
+    run_engine(
+        args.model,
+        load_theory,
+        robot_name(theory, args.model),
+        rate_hz=args.rate,
+        max_card=args.max_card,
+    )
+    return 0

@@ -1,0 +1,39 @@
+"""``racc observe``: the observer host node (every observer of a model in one process)."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from rac.commands.common import add_command
+from rac.loader import load_observers
+from rac.observe import ObserverBank
+
+
+def register(sub: Any) -> None:
+    parser = add_command(
+        sub,
+        "observe",
+        "run every observer of a model as one ROS 1 node",
+        "Run the observers of OBSERVERS (the observers.yaml 'racc compile' wrote) as one rospy "
+        "node, with one subscription per topic. Nodes are observed through the master and "
+        "their XML-RPC getPid, cpu and memory with psutil, devices on /diagnostics, the board "
+        "on /board_measurements. Observations go to /observations as diagnostic_msgs/"
+        "DiagnosticArray, one status per literal (docs/runtime.md). Needs ROS 1 (rospy).",
+        "  racc observe build/tedusar/observers.yaml\n"
+        "  racc observe build/tedusar/observers.yaml --rate 20",
+    )
+    parser.add_argument("observers", metavar="OBSERVERS", help="observers.yaml")
+    parser.add_argument(
+        "--rate", type=float, default=10.0, help="node and property samples per second (10)"
+    )
+    parser.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from rac.ros1.observe import run_observe
+
+    _, specs = load_observers(args.observers)
+    ObserverBank(specs)  # RAC050/RAC051 before any ROS work
+    run_observe(specs, sample_hz=args.rate)
+    return 0

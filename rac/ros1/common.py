@@ -1,0 +1,203 @@
+"""What the rospy nodes share: importing ROS, the master, statuses and raw messages.
+
+Nothing here decides anything about diagnosis or repair; it moves data between rospy and
+the engines of :mod:`rac.runtime`.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import xmlrpc.client
+from collections.abc import Iterable, Sequence
+from typing import Any
+from urllib.parse import urlparse
+
+from rac.errors import Diagnostic, RacError
+from rac.runtime.procs import REMOTE
+from rac.runtime.status import Row
+
+CALLER = "/racc"
+XMLRPC_TIMEOUT_S = 0.5
+VENV_HINT = (
+    "install ROS 1's Python packages (Debian/Ubuntu: apt-get install python3-rospy "
+    "python3-roslaunch python3-rosbag python3-diagnostic-msgs ...) and run racc from a venv "
+    "made with '/usr/bin/python3 -m venv --system-site-packages' (see docs/runtime.md)"
+)
+
+
+def require_ros() -> Any:
+    """rospy, or RAC057 saying how to get it."""
+    try:
+        import rospy
+    except ImportError as err:
+        raise RacError(
+            [Diagnostic("RAC057", f"ROS 1 is not available to this Python: {err}", hint=VENV_HINT)]
+        ) from None
+    return rospy
+
+
+def master_uri() -> str:
+    return os.environ.get("ROS_MASTER_URI", "http://localhost:11311")
+
+
+def check_master() -> None:
+    """RAC058 when no master answers at ROS_MASTER_URI."""
+    import rosgraph
+
+    if not rosgraph.is_master_online(master_uri()):
+        raise RacError(
+            [
+                Diagnostic(
+                    "RAC058",
+                    f"no ROS master at {master_uri()}",
+                    hint="start one with 'roscore', or set ROS_MASTER_URI",
+                )
+            ]
+        )
+
+
+class _TimeoutTransport(xmlrpc.client.Transport):
+    def __init__(self, timeout: float) -> None:
+        super().__init__()
+        self._timeout = timeout
+
+    def make_connection(self, host: Any) -> Any:
+        conn = super().make_connection(host)
+        conn.timeout = self._timeout
+        return conn
+
+
+def proxy(uri: str, timeout: float = XMLRPC_TIMEOUT_S) -> Any:
+    """An XML-RPC proxy whose calls give up after ``timeout`` (answers are untyped)."""
+    return xmlrpc.client.ServerProxy(uri, transport=_TimeoutTransport(timeout))
+
+
+def _local_hosts() -> frozenset[str]:
+    names = {"localhost", "127.0.0.1", "::1", socket.gethostname(), socket.getfqdn()}
+    names.update(os.environ.get(k, "") for k in ("ROS_IP", "ROS_HOSTNAME"))
+    return frozenset(n for n in names if n)
+
+
+LOCAL_HOSTS = _local_hosts()
+
+
+def node_uri(node: str) -> str | None:
+    """The XML-RPC URI the master has for ``node`` (no leading '/' needed)."""
+    code, _, uri = proxy(master_uri()).lookupNode(CALLER, "/" + node.lstrip("/"))
+    return str(uri) if code == 1 else None
+
+
+def resolve_pid(node: str) -> int | None:
+    """The node's pid from its getPid (REMOTE for another machine); None: not reachable."""
+    try:
+        uri = node_uri(node)
+        if uri is None:
+            return None
+        code, _, pid = proxy(uri).getPid(CALLER)
+    except (OSError, xmlrpc.client.Error):
+        return None
+    if code != 1:
+        return None
+    host = urlparse(uri).hostname or ""
+    return int(pid) if host in LOCAL_HOSTS or host.startswith("127.") else REMOTE
+
+
+def system_state() -> tuple[list[Any], list[Any], list[Any]]:
+    """The master's getSystemState: (publishers, subscribers, services)."""
+    code, message, state = proxy(master_uri(), 2.0).getSystemState(CALLER)
+    if code != 1:
+        raise RacError([Diagnostic("RAC058", f"the master refused getSystemState: {message}")])
+    return state[0], state[1], state[2]
+
+
+def topic_types() -> dict[str, str]:
+    code, _, pairs = proxy(master_uri(), 2.0).getTopicTypes(CALLER)
+    return {str(t): str(ty) for t, ty in pairs} if code == 1 else {}
+
+
+# -- diagnostic statuses ---------------------------------------------------------------------
+
+
+def to_array(rows: Iterable[Row], stamp: Any = None) -> Any:
+    import rospy
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+
+    array = DiagnosticArray()
+    array.header.stamp = stamp if stamp is not None else rospy.Time.now()
+    array.status = [
+        DiagnosticStatus(
+            level=r.level,
+            name=r.name,
+            message=r.message,
+            hardware_id=r.hardware_id,
+            values=[KeyValue(key=k, value=v) for k, v in r.values],
+        )
+        for r in rows
+    ]
+    return array
+
+
+def from_array(array: Any) -> list[Row]:
+    return [from_status(s) for s in array.status]
+
+
+def from_status(status: Any) -> Row:
+    level = status.level
+    if isinstance(level, bytes):  # a 'byte' field may come as bytes
+        level = level[0] if level else 0
+    return Row(
+        name=status.name,
+        level=int(level),
+        message=status.message,
+        hardware_id=status.hardware_id,
+        values=tuple((kv.key, kv.value) for kv in status.values),
+    )
+
+
+# -- raw messages ------------------------------------------------------------------------------
+
+_RAW: dict[tuple[str, str], type] = {}
+
+
+def raw_class(ros_type: str, md5sum: str, definition: str) -> type:
+    """A message class that publishes bytes serialized elsewhere (rosbags), with the type,
+    md5sum and definition of ``ros_type`` in the connection header, as a generated class
+    would: subscribers, ``rostopic echo`` and ``rosbag record`` see the real type."""
+    key = (ros_type, md5sum)
+    found = _RAW.get(key)
+    if found is not None:
+        return found
+    import genpy
+
+    class Raw(genpy.Message):  # type: ignore[misc]
+        _type = ros_type
+        _md5sum = md5sum
+        _full_text = definition
+        _has_header = False  # rospy must not touch a header: the bytes are final
+        __slots__ = ("_buff",)
+
+        def __init__(self, buff: bytes = b"") -> None:
+            self._buff = buff
+
+        def serialize(self, buff: Any) -> None:
+            buff.write(self._buff)
+
+        def deserialize(self, data: bytes) -> Raw:
+            self._buff = data
+            return self
+
+    Raw.__name__ = f"Raw_{ros_type.replace('/', '_')}"
+    _RAW[key] = Raw
+    return Raw
+
+
+def connection_type(msg: Any) -> tuple[str, str]:
+    """(type, message definition) from an AnyMsg's connection header."""
+    header = getattr(msg, "_connection_header", None) or {}
+    return str(header.get("type", "")), str(header.get("message_definition", ""))
+
+
+def strip_ros_args(argv: Sequence[str]) -> list[str]:
+    """The command line without roslaunch's ``__name:=…``, ``__log:=…`` and remappings."""
+    return [a for a in argv if ":=" not in a]

@@ -1,0 +1,199 @@
+"""The repair node (``racc repairer``): Algorithm 11 executed on a live ROS 1 system.
+
+The executor (:mod:`rac.runtime.repairer`) decides; this node carries out its requests:
+
+- start_node(n): the entry named ``n`` in the user's launch file (``--launch``), started
+  through roslaunch's Python API (``roslaunch.scriptapi.ROSLaunch``) with its package,
+  type, args, remappings and environment; the file's parameters are already on the
+  parameter server from the user's own roslaunch;
+- stop_node(n): a node this repairer started is stopped by roslaunch; any other is asked to
+  shut down over its XML-RPC API (as ``rosnode kill`` does), then sent SIGTERM;
+- shutdown(d) / power_up(d): a request on ``/board_switch`` to the board client node.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+from rac.diagnosis import Theory
+from rac.errors import Diagnostic, RacError
+from rac.ros1.common import CALLER, from_array, node_uri, proxy, require_ros, resolve_pid, to_array
+from rac.runtime.procs import REMOTE
+from rac.runtime.repairer import LogEntry, RepairExecutor, Settings
+from rac.runtime.status import row_diagnosis, row_verdict
+
+REPAIR_LOG = "/repair_log"
+STOP_GRACE_S = 1.5
+
+
+def load_launch_nodes(path: str) -> dict[str, Any]:
+    """Node entries of a launch file by resolved name ("/ns/name" -> roslaunch Node)."""
+    import roslaunch.config
+
+    if not Path(path).is_file():
+        raise RacError([Diagnostic("RAC059", f"{path}: no such launch file")])
+    try:
+        config = roslaunch.config.load_config_default([path], None, verbose=False)
+    except Exception as err:  # roslaunch raises many kinds for a bad file
+        raise RacError(
+            [Diagnostic("RAC059", f"{path}: cannot load the launch file: {err}")]
+        ) from None
+    out: dict[str, Any] = {}
+    for node in config.nodes:
+        ns = node.namespace if node.namespace.endswith("/") else node.namespace + "/"
+        out[f"{ns}{node.name}"] = node
+    return out
+
+
+class Ros1Actuator:
+    def __init__(self, rospy: Any, launch_file: str | None) -> None:
+        import roslaunch.scriptapi
+        from diagnostic_msgs.msg import KeyValue
+
+        self.rospy = rospy
+        self.launch_file = launch_file
+        self.entries = load_launch_nodes(launch_file) if launch_file else {}
+        self.launch = roslaunch.scriptapi.ROSLaunch()  # the main thread: roslaunch wants it
+        self.launch.start()
+        self.started: dict[str, Any] = {}
+        self.KeyValue = KeyValue
+        self.switches = rospy.Publisher("/board_switch", KeyValue, queue_size=10)
+
+    def _entry(self, node: str) -> Any:
+        key = "/" + node.lstrip("/")
+        entry = self.entries.get(key)
+        if entry is None:
+            where = self.launch_file or "no launch file (give one with --launch)"
+            raise RacError([Diagnostic("RAC111", f"node '{node}' has no entry in {where}")])
+        return entry
+
+    def start_node(self, node: str) -> None:
+        entry = self._entry(node)
+        try:
+            self.started[node] = self.launch.launch(entry)
+        except Exception as err:
+            raise RacError(
+                [Diagnostic("RAC111", f"roslaunch cannot start '{node}': {err}")]
+            ) from None
+
+    def stop_node(self, node: str) -> None:
+        proc = self.started.pop(node, None)
+        if proc is not None and proc.is_alive():
+            proc.stop()
+            return
+        pid = resolve_pid(node)
+        try:
+            uri = node_uri(node)
+            if uri is not None:
+                proxy(uri).shutdown(CALLER, "racc repairer: stop_node")
+        except OSError:
+            pass
+        if pid is not None and pid != REMOTE:
+            threading.Thread(target=_terminate, args=(pid,), daemon=True).start()
+
+    def switch(self, device: str, on: bool) -> None:
+        if self.switches.get_num_connections() == 0:
+            raise RacError(
+                [
+                    Diagnostic(
+                        "RAC114",
+                        "no board client listens on /board_switch",
+                        hint="start it with 'racc board-client' (compiled launch files do)",
+                    )
+                ]
+            )
+        self.switches.publish(self.KeyValue(key=device, value="on" if on else "off"))
+
+    def shutdown(self) -> None:
+        self.launch.stop()
+
+
+def _terminate(pid: int) -> None:
+    deadline = time.time() + STOP_GRACE_S
+    while time.time() < deadline:
+        if not _alive(pid):
+            return
+        time.sleep(0.05)
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        try:
+            os.kill(pid, sig)
+        except OSError:
+            return
+        time.sleep(STOP_GRACE_S)
+        if not _alive(pid):
+            return
+
+
+def _alive(pid: int) -> bool:
+    import psutil
+
+    try:
+        return psutil.Process(pid).status() != psutil.STATUS_ZOMBIE
+    except psutil.Error:
+        return False
+
+
+def run_repairer(
+    theory: Theory,
+    robot: str,
+    *,
+    launch_file: str | None,
+    nodes: dict[str, str],
+    devices: dict[str, str],
+    settings: Settings,
+    rate_hz: float = 10.0,
+    name: str = "racc_repairer",
+) -> None:
+    rospy = require_ros()
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    rospy.init_node(name)
+    actuator = Ros1Actuator(rospy, launch_file)
+    log_pub = rospy.Publisher(REPAIR_LOG, DiagnosticArray, queue_size=50, latch=True)
+
+    def log(entry: LogEntry) -> None:
+        (rospy.logerr if entry.level >= 2 else rospy.loginfo)(str(entry))
+        log_pub.publish(to_array([entry.row()]))
+
+    executor = RepairExecutor(
+        theory, robot, actuator, log, nodes=nodes, devices=devices, settings=settings
+    )
+    lock = threading.Lock()
+
+    def on_observations(array: Any) -> None:
+        t = time.time()
+        with lock:
+            for row in from_array(array):
+                verdict = row_verdict(row, t)
+                if verdict is not None:
+                    executor.observe(verdict)
+
+    def on_diagnosis(array: Any) -> None:
+        rows = from_array(array)
+        found = [row_diagnosis(r) for r in rows]
+        with lock:
+            if any(d is None for d in found):
+                executor.diagnosis(None)
+            else:
+                executor.diagnosis(tuple(d for d in found if d is not None))
+
+    rospy.Subscriber("/observations", DiagnosticArray, on_observations, queue_size=50)
+    rospy.Subscriber("/diagnosis", DiagnosticArray, on_diagnosis, queue_size=10)
+    rospy.loginfo(
+        "racc repairer: launch file %s, %d components",
+        launch_file or "(none)",
+        len(theory.components),
+    )
+    period = 1.0 / rate_hz
+    try:
+        while not rospy.is_shutdown():
+            with lock:
+                executor.tick()
+            time.sleep(period)
+    finally:
+        actuator.shutdown()

@@ -1,0 +1,12 @@
+"""The live runtime's logic, transport-free: what the ROS 1 nodes (``rac.ros1``) run and a
+ROS 2 transport will run too.
+
+- :mod:`status`: observations, diagnoses and board readings as diagnostic statuses;
+- :mod:`values`: the values observers read from raw message bytes;
+- :mod:`procs`: node liveness and cpu/mem samples of processes (psutil);
+- :mod:`host`: the observer host, every observer of a model in one process;
+- :mod:`diagnoser`: Algorithm 10's collection and the periodic diagnosis (§6.3, §6.4);
+- :mod:`repairer`: Algorithm 11 with every step verified in the observations;
+- :mod:`demo`: what a demo robot's node publishes and which faults it shows;
+- :mod:`record`: the computation graph and properties CSV of a recording (§9.1.1).
+"""

@@ -1,0 +1,227 @@
+"""A demo robot made from a model: what one node publishes and which faults it shows.
+
+Every node of the model becomes one process (``racc demo``).  Its topics carry ``racc
+synth``'s signals: one world (the teleoperated motion, the ground) simulated from the
+seed, identical in every process, read at the wall-clock time since the demo's epoch, so
+that related signals of different nodes stay related.  The world repeats every
+``period_s``.  Regular topics are published at the model's rate; event-driven ones at
+synth's event rates.  Messages are serialized with rosbags' typestores, custom types
+(``tedusar_msgs/ServoState``) included, so no message package is needed.
+
+Faults (``KIND@T[+D]:TARGET``, T seconds after the epoch):
+
+    crash@T:node      the node's process exits
+    freq@T:/topic     the topic is published five times as often
+    cpu@T:node        the node keeps a core busy (twice its cpu limit, at least 30 %)
+    mem@T:node        the node holds twice its memory limit (100 MB without one)
+    slip@T:/odom      the odometry's yaw leaves the IMU's (in the world: every process)
+    trip@T:device     the board trips the switchable device's supply (``racc demo`` does it)
+
+A software fault (crash, freq, cpu, mem) hits the process running at T only: a node that
+the repair engine restarts comes back healthy.  A driver whose device loses power stops
+publishing and reports ERROR for it on /diagnostics until the driver is restarted with the
+device on, as a driver that lost its hardware connection does.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from rac.errors import Diagnostic, RacError
+from rac.ir import Model, Node, Topic
+from rac.synth.faults import FAULT_KINDS, FAULT_SPEC, FREQ_FACTOR, Fault, parse_fault
+from rac.synth.recording import Plan, PlannedTopic, SynthOptions, _assignments, build_message
+from rac.synth.sensors import content, role_of
+from rac.synth.timing import DEFAULT_EVENT_RATE_HZ, EVENT_RATE_HZ
+from rac.synth.types import MessageFactory, leaf_types, new_typestore, resolve_type
+from rac.synth.world import simulate
+
+DEMO_KINDS = (*FAULT_KINDS, "trip")
+SOFTWARE = frozenset({"crash", "freq", "cpu", "mem"})
+DEFAULT_PERIOD_S = 300.0
+STATUS_HZ = 1.0  # /diagnostics of a node that reports a device
+MIN_BURN = 30.0  # percent of one core for a cpu fault
+DEFAULT_MEM = 100 * 1024 * 1024
+
+
+def parse_demo_fault(spec: str, model: Model) -> Fault:
+    """synth's faults plus ``trip@T:device`` (RAC113 when malformed)."""
+    match = FAULT_SPEC.fullmatch(spec.strip())
+    hint = "write KIND@T[+D]:TARGET, e.g. crash@20:jaguar_node, freq@20:/scan, trip@20:jaguar"
+    if match is not None and match["kind"] == "trip":
+        switchable = sorted(h.name.value for h in model.hardware if h.switchable)
+        if match["target"] not in switchable:
+            why = f"trip needs switchable hardware (one of {', '.join(switchable) or 'none'})"
+            raise RacError([Diagnostic("RAC113", f"fault '{spec}': {why}", hint=hint)])
+        duration = float(match["d"]) if match["d"] else None
+        return Fault("trip", float(match["t"]), duration, match["target"])
+    try:
+        return parse_fault(spec, model)
+    except RacError as err:
+        message = err.diagnostics[0].message
+        raise RacError([Diagnostic("RAC113", message, hint=hint)]) from None
+
+
+def fault_text(f: Fault) -> str:
+    span = f"+{f.duration:g}" if f.duration is not None else ""
+    return f"{f.kind}@{f.start:g}{span}:{f.target}"
+
+
+@dataclass(frozen=True, slots=True)
+class LiveTopic:
+    name: str
+    ros_type: str  # "sensor_msgs/Imu"
+    typename: str  # the typestore's name
+    definition: str  # the full ROS 1 message definition
+    md5sum: str
+    rate_hz: float  # nominal publication rate
+    planned: PlannedTopic  # one period of values, at the nominal rate
+    has_header: bool
+
+
+class DemoNode:
+    """One node of the demo robot; ``started`` is when its process started (epoch seconds)."""
+
+    def __init__(
+        self,
+        model: Model,
+        node: str,
+        *,
+        epoch: float,
+        started: float,
+        seed: int = 0,
+        period_s: float = DEFAULT_PERIOD_S,
+        faults: Sequence[Fault] = (),
+    ) -> None:
+        by_name = model.node_by_name()
+        if node not in by_name:
+            known = ", ".join(sorted(by_name))
+            raise RacError([Diagnostic("RAC113", f"the model has no node '{node}' ({known})")])
+        self.model, self.name, self.node = model, node, by_name[node]
+        self.epoch, self.started_world = epoch, started - epoch
+        self.period_s = period_s
+        self.faults = tuple(f for f in faults if f.kind != "trip")
+        switchable = {h.name.value: h.channel for h in model.hardware if h.switchable}
+        self.devices = tuple(
+            (d.value, switchable[d.value] or 0) for d in self.node.drives if d.value in switchable
+        )
+        self.reports = tuple(d.value for d in self.node.diagnostics)
+        self.subscribes = tuple(t.value for t in self.node.subscribes)
+        self.topic_types = {
+            t.name.value: self._ros_type(t) for t in model.topics
+        }  # for subscriptions
+        self.topics = self._plan(seed)
+
+    @staticmethod
+    def _ros_type(topic: Topic) -> str:
+        return topic.msg_type.replace("/msg/", "/") if topic.msg_type else ""
+
+    def _plan(self, seed: int) -> tuple[LiveTopic, ...]:
+        rng = np.random.default_rng(seed)
+        slips = [f for f in self.faults if f.kind == "slip"]
+        world = simulate(self.period_s, rng, slips)
+        store = new_typestore(1)
+        mine = {p.topic.value for p in self.node.publishes}
+        options = SynthOptions(duration=self.period_s, seed=seed)
+        self._plan_holder = Plan(options, 0.0, store, (), "", MessageFactory(store))
+        out: list[LiveTopic] = []
+        servos = 0
+        for k, topic in enumerate(sorted(self.model.topics, key=lambda t: t.name.value)):
+            role = role_of(topic)
+            if topic.name.value in mine:
+                out.append(self._live(topic, role, world, store, seed, k, servos))
+            servos += role == "servo"
+        return tuple(out)
+
+    def _live(
+        self, topic: Topic, role: str, world: Any, store: Any, seed: int, k: int, servo: int
+    ) -> LiveTopic:
+        typename = resolve_type(topic, store)
+        leaves = leaf_types(store, typename)
+        rate = topic.rate_hz or EVENT_RATE_HZ.get(topic.msg_type or "", DEFAULT_EVENT_RATE_HZ)
+        times = np.arange(0.0, self.period_s, 1.0 / rate)
+        c = content(topic, role, times, world, np.random.default_rng([seed, k]), servo, leaves)
+        planned = PlannedTopic(
+            topic.name.value,
+            typename,
+            self.name,
+            times,
+            c,
+            leaves,
+            _assignments(c, leaves, times, 0.0),
+        )
+        definition, md5 = store.generate_msgdef(typename)
+        return LiveTopic(
+            topic.name.value,
+            typename.replace("/msg/", "/"),
+            typename,
+            definition,
+            md5,
+            rate,
+            planned,
+            "header.stamp.sec" in leaves,
+        )
+
+    # -- what to publish -----------------------------------------------------------------
+    def message(self, topic: LiveTopic, now: float) -> bytes:
+        """The serialized message of ``topic`` for wall-clock time ``now``."""
+        t = (now - self.epoch) % self.period_s
+        i = min(int(t * topic.rate_hz), topic.planned.times.size - 1)
+        msg = build_message(self._plan_holder, topic.planned, i)
+        if topic.has_header:
+            msg.header.stamp.sec = int(now)
+            msg.header.stamp.nanosec = int((now % 1.0) * 1e9)
+        store = self._plan_holder.store
+        return bytes(store.serialize_ros1(msg, topic.typename))
+
+    def _active(self, kind: str, target: str, now: float) -> bool:
+        t = now - self.epoch
+        return any(
+            f.kind == kind
+            and f.target == target
+            and f.active(t)
+            and (kind not in SOFTWARE or self.started_world < f.start)
+            for f in self.faults
+        )
+
+    def rate(self, topic: LiveTopic, now: float) -> float:
+        factor = FREQ_FACTOR if self._active("freq", topic.name, now) else 1.0
+        return topic.rate_hz * factor
+
+    def crashed(self, now: float) -> bool:
+        return self._active("crash", self.name, now)
+
+    def cpu_burn(self, now: float) -> float:
+        """The fraction of one core to keep busy now."""
+        if not self._active("cpu", self.name, now):
+            return 0.0
+        limit = self.node.limits.cpu or 0.0
+        return min(0.9, max(2 * limit, MIN_BURN) / 100.0)
+
+    def mem_hold(self, now: float) -> int:
+        """Bytes to hold now."""
+        if not self._active("mem", self.name, now):
+            return 0
+        limit = self.node.limits.mem
+        return 2 * limit if limit else DEFAULT_MEM
+
+    def first_fault_s(self) -> float | None:
+        """When the next software fault of this process is due (epoch seconds)."""
+        due = [f.start for f in self.faults if f.kind in SOFTWARE and self.started_world < f.start]
+        return self.epoch + min(due) if due else None
+
+
+def trips(faults: Sequence[Fault]) -> tuple[Fault, ...]:
+    return tuple(sorted((f for f in faults if f.kind == "trip"), key=lambda f: f.start))
+
+
+def node_names(model: Model) -> tuple[str, ...]:
+    return tuple(n.name.value for n in model.nodes)
+
+
+def driver_nodes(model: Model) -> dict[str, Node]:
+    return {n.name.value: n for n in model.nodes if n.drives}

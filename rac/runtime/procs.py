@@ -1,0 +1,95 @@
+"""Node liveness and cpu/mem samples, from the operating system's process table.
+
+A transport gives a ``resolve(node)`` that asks its middleware for the node (ROS 1: the
+master's lookupNode, then the node's getPid) and returns its pid, -1 for a node that answers
+but runs on another machine, or None when the node is not there.  Once a local pid is known,
+liveness and properties come from psutil without asking the middleware again; a node whose
+process has gone is resolved afresh (a restarted node has a new pid).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+
+import psutil
+
+from rac.observe import Event, NodeSample, PropertySample
+
+REMOTE = -1
+
+
+class ProcessProbe:
+    def __init__(
+        self,
+        nodes: Iterable[str],
+        resolve: Callable[[str], int | None],
+        properties: Iterable[tuple[str, str]] = (),
+        resolve_every_s: float = 0.5,
+    ) -> None:
+        self.nodes = tuple(sorted(set(nodes) | {n for n, _ in properties}))
+        self.properties = frozenset(properties)
+        self.resolve = resolve
+        self.resolve_every_s = resolve_every_s
+        self._procs: dict[str, psutil.Process] = {}
+        self._asked: dict[str, float] = {}  # when the middleware was last asked
+        self._alive: dict[str, bool] = {}
+
+    def pid(self, node: str) -> int | None:
+        proc = self._procs.get(node)
+        return proc.pid if proc is not None else None
+
+    def _local(self, node: str) -> psutil.Process | None:
+        proc = self._procs.get(node)
+        if proc is None:
+            return None
+        try:
+            if proc.is_running() and proc.status() != psutil.STATUS_ZOMBIE:
+                return proc
+        except psutil.Error:
+            pass
+        del self._procs[node]
+        return None
+
+    def _ask(self, node: str, t: float) -> bool | None:
+        """Ask the middleware (at most every ``resolve_every_s``); None: not asked now."""
+        if t - self._asked.get(node, float("-inf")) < self.resolve_every_s:
+            return None
+        self._asked[node] = t
+        pid = self.resolve(node)
+        if pid is None:
+            return False
+        if pid != REMOTE:
+            try:
+                proc = psutil.Process(pid)
+                proc.cpu_percent(None)  # the first call only starts the measurement
+                self._procs[node] = proc
+            except psutil.Error:
+                return False
+        return True
+
+    def sample(self, t: float, with_properties: bool = True) -> list[Event]:
+        """A liveness sample of every node that can be judged now, and its properties."""
+        out: list[Event] = []
+        for node in self.nodes:
+            proc = self._local(node)
+            if proc is not None:
+                running: bool | None = True
+            else:
+                running = self._ask(node, t)
+                if running is None:  # asked a moment ago: the answer stands until next time
+                    running = self._alive.get(node)
+                proc = self._local(node) if running else None
+            if running is None:
+                continue
+            self._alive[node] = running
+            out.append(NodeSample(t, node, running))
+            if proc is None or not with_properties:
+                continue
+            try:
+                if (node, "cpu") in self.properties:
+                    out.append(PropertySample(t, node, "cpu", proc.cpu_percent(None)))
+                if (node, "mem") in self.properties:
+                    out.append(PropertySample(t, node, "mem", float(proc.memory_info().rss)))
+            except psutil.Error:
+                self._procs.pop(node, None)
+        return out

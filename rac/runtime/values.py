@@ -1,0 +1,103 @@
+"""The values observers read from raw messages, for any runtime that receives bytes.
+
+A ROS 1 subscription delivers serialized bytes with the connection's type name and message
+definition; this module deserializes them with rosbags (so no message package has to be
+installed, custom types included), reads the fields the observers asked for with the same
+layout and extractor ``racc learn`` uses on a recording (``yaw``, ``pitch`` and ``roll``
+derived from a quaternion), and unwraps yaw and roll into continuous signals as the learner
+does, incrementally.  Only topics whose fields some observer reads are deserialized at all:
+a frequency observer needs the arrival time only.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+from rosbags.typesys.store import Typestore
+
+from rac.learn.fields import FieldSelector, layout_of
+from rac.learn.fields import extractor as field_extractor
+
+WRAPPING = frozenset({"yaw", "roll"})
+TAU = 2 * math.pi
+
+
+def store_type(ros_type: str) -> str:
+    """``sensor_msgs/Imu`` -> ``sensor_msgs/msg/Imu`` (a typestore's spelling)."""
+    if "/msg/" in ros_type:
+        return ros_type
+    package, _, name = ros_type.rpartition("/")
+    return f"{package}/msg/{name}"
+
+
+class Decoders:
+    """One typestore for a process; a :class:`TopicValues` per subscribed topic."""
+
+    def __init__(self) -> None:
+        self.store: Typestore = get_typestore(Stores.ROS1_NOETIC)
+
+    def register(self, ros_type: str, definition: str) -> str:
+        """Make ``ros_type`` known from its ROS 1 message definition; its typestore name."""
+        name = store_type(ros_type)
+        if name not in self.store.fielddefs and definition.strip():
+            self.store.register(get_types_from_msg(definition, name))
+        return name
+
+    def for_topic(
+        self, topic: str, fields: frozenset[str], ros_type: str, definition: str
+    ) -> TopicValues:
+        if not fields:
+            return TopicValues(topic, (), None)
+        name = self.register(ros_type, definition)
+        if name not in self.store.fielddefs:
+            return TopicValues(topic, (), None)
+        selector = FieldSelector(declared={topic: fields})
+        layout = layout_of(self.store.fielddefs, name, topic, selector)
+        extract = field_extractor(layout)
+        store = self.store
+
+        def read(raw: bytes) -> tuple[float, ...]:
+            return extract(store.deserialize_ros1(raw, name))
+
+        return TopicValues(topic, layout.fields, read)
+
+
+class TopicValues:
+    """Values of one topic's messages: field -> value, yaw and roll kept continuous."""
+
+    def __init__(
+        self,
+        topic: str,
+        fields: tuple[str, ...],
+        read: Callable[[bytes], tuple[float, ...]] | None,
+    ) -> None:
+        self.topic = topic
+        self.fields = fields
+        self._read = read
+        self._wrap = tuple(f in WRAPPING for f in fields)
+        self._last: list[float] = [math.nan] * len(fields)
+        self._turns: list[float] = [0.0] * len(fields)
+
+    def values(self, raw: bytes) -> Mapping[str, float]:
+        if self._read is None:
+            return {}
+        try:
+            read = self._read(raw)
+        except Exception:  # a message that does not match its definition: no values
+            return {}
+        out: dict[str, float] = {}
+        for i, (field, value) in enumerate(zip(self.fields, read, strict=True)):
+            if self._wrap[i] and math.isfinite(value):
+                last = self._last[i]
+                if math.isfinite(last):
+                    jump = value - last
+                    if jump > math.pi:
+                        self._turns[i] -= TAU
+                    elif jump < -math.pi:
+                        self._turns[i] += TAU
+                self._last[i] = value
+                value += self._turns[i]
+            out[field] = value
+        return out

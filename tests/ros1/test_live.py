@@ -1,0 +1,352 @@
+"""End to end on a real ROS 1 system: roscore, the tedusar demo robot, the compiled launch
+file with racc's runtime; faults are injected and must be diagnosed, repaired, verified.
+
+Skipped (with the reason) where ROS 1 is not importable: run them from a venv made with
+``/usr/bin/python3 -m venv --system-site-packages`` after installing Debian's python3-rospy
+and friends (``.ci/run`` does).  Everything started here is stopped by PID; roslaunch gets
+SIGINT so that it ends its children.  The timings printed (``-s``) are the figures of
+docs/runtime.md; the assertions are the issue's bounds.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+# CI sets RACC_REQUIRE_ROS=1 in its ROS venv: there a missing ROS is a failure, not a skip.
+if os.environ.get("RACC_REQUIRE_ROS") == "1":
+    import rospy
+else:
+    rospy = pytest.importorskip(
+        "rospy", reason="ROS 1 (python3-rospy) is not importable: see docs/runtime.md"
+    )
+if shutil.which("roscore") is None or shutil.which("roslaunch") is None:
+    if os.environ.get("RACC_REQUIRE_ROS") == "1":
+        raise RuntimeError("roscore/roslaunch are not installed")
+    pytest.skip("roscore/roslaunch are not installed", allow_module_level=True)
+
+from rac.loader import load_observers
+
+ROOT = Path(__file__).resolve().parents[2]
+TEDUSAR = ROOT / "models" / "tedusar.ram"
+RACC = [sys.executable, "-m", "rac"]
+
+
+def live_model(tmp: Path) -> Path:
+    """tedusar without its qualitative relations (``relate``): on the demo's live signals the
+    binary qualitative observers still flap (see docs/runtime.md, "Known limits"), which
+    would make every run end in a spurious repair.  Everything else is tedusar's."""
+    path = tmp / "tedusar.ram"
+    lines = TEDUSAR.read_text(encoding="utf-8").splitlines()
+    path.write_text("\n".join(x for x in lines if not x.startswith("relate ")) + "\n")
+    return path
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@dataclass
+class Seen:
+    """Time-stamped messages of the runtime's topics, as the test's own node sees them."""
+
+    observations: list[tuple[float, list[tuple[str, int]]]] = field(default_factory=list)
+    diagnosis: list[tuple[float, list[str]]] = field(default_factory=list)
+    repair_log: list[tuple[float, str, str, int, str]] = field(default_factory=list)
+    lock: threading.Lock = field(default_factory=threading.Lock)
+
+    def wait(self, what: Callable[[], float | None], timeout: float) -> float | None:
+        deadline = time.time() + timeout
+        while time.time() < deadline:
+            with self.lock:
+                found = what()
+            if found is not None:
+                return found
+            time.sleep(0.1)
+        return None
+
+
+@dataclass
+class Live:
+    env: dict[str, str]
+    tmp: Path
+    build: Path
+    seen: Seen
+    atoms: int
+    procs: list[subprocess.Popen[bytes]] = field(default_factory=list)
+
+    def start(self, args: list[str], log: str) -> subprocess.Popen[bytes]:
+        out = open(self.tmp / log, "wb")  # noqa: SIM115 - closed with the process
+        proc = subprocess.Popen(args, env=self.env, stdout=out, stderr=subprocess.STDOUT)
+        self.procs.append(proc)
+        return proc
+
+    def stop(self, proc: subprocess.Popen[bytes]) -> None:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGINT)
+            try:
+                proc.wait(20)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait(5)
+
+
+@pytest.fixture(scope="module")
+def live(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Live]:
+    tmp = tmp_path_factory.mktemp("live")
+    port = free_port()
+    env = dict(os.environ)
+    env.update(
+        ROS_MASTER_URI=f"http://127.0.0.1:{port}",
+        ROS_IP="127.0.0.1",
+        ROS_HOME=str(tmp / "ros_home"),
+        ROS_PACKAGE_PATH=str(tmp / "pkg"),
+        PYTHONUNBUFFERED="1",
+    )
+    os.environ.update({k: env[k] for k in ("ROS_MASTER_URI", "ROS_IP", "ROS_HOME")})
+    build = tmp / "build"
+    subprocess.run([*RACC, "ros-package", "-o", str(tmp / "pkg"), "-q"], check=True, env=env)
+    subprocess.run(
+        [*RACC, "compile", str(live_model(tmp)), "-o", str(build), "--no-svg", "-q"],
+        check=True,
+        env=env,
+    )
+    specs = load_observers(build / "observers.yaml")[1]
+    live = Live(env, tmp, build, Seen(), sum(len(s.atoms) for s in specs))
+    core = live.start(["roscore", "-p", str(port)], "roscore.log")
+    import rosgraph
+
+    deadline = time.time() + 20
+    while not rosgraph.is_master_online(env["ROS_MASTER_URI"]) and time.time() < deadline:
+        time.sleep(0.2)
+    assert rosgraph.is_master_online(env["ROS_MASTER_URI"]), "roscore did not come up"
+    _monitor(live.seen)
+    try:
+        yield live
+    finally:
+        for proc in reversed(live.procs):
+            if proc is not core:
+                live.stop(proc)
+        rospy.signal_shutdown("test done")
+        live.stop(core)
+
+
+def _monitor(seen: Seen) -> None:
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    rospy.init_node("racc_test_monitor", anonymous=True, disable_signals=True)
+
+    def obs(a: Any) -> None:
+        with seen.lock:
+            seen.observations.append((time.time(), [(s.message, s.level) for s in a.status]))
+
+    def diag(a: Any) -> None:
+        with seen.lock:
+            seen.diagnosis.append((time.time(), [s.message for s in a.status]))
+
+    def log(a: Any) -> None:
+        with seen.lock:
+            for s in a.status:
+                seen.repair_log.append((time.time(), s.name, s.hardware_id, s.level, s.message))
+
+    rospy.Subscriber("/observations", DiagnosticArray, obs)
+    rospy.Subscriber("/diagnosis", DiagnosticArray, diag)
+    rospy.Subscriber("/repair_log", DiagnosticArray, log)
+
+
+def all_ok_since(seen: Seen, after: float, atoms: int) -> Callable[[], float | None]:
+    """When every observation was ok (all atoms) and /diagnosis empty, after ``after``."""
+
+    def check() -> float | None:
+        ok = [
+            t
+            for t, rows in seen.observations
+            if t >= after and len(rows) >= atoms and all(level == 0 for _, level in rows)
+        ]
+        if not ok:
+            return None
+        empty = [t for t, d in seen.diagnosis if t >= ok[0] and not d]
+        return max(ok[0], empty[0]) if empty else None
+
+    return check
+
+
+def named_since(seen: Seen, after: float, component: str) -> Callable[[], float | None]:
+    def check() -> float | None:
+        for t, diagnoses in seen.diagnosis:
+            if t >= after and any(component in d.split(",") for d in diagnoses):
+                return t
+        return None
+
+    return check
+
+
+def logged(seen: Seen, after: float, action: str, target: str) -> bool:
+    with seen.lock:
+        return any(
+            t >= after and name == action and hw == target and msg.startswith("done")
+            for t, name, hw, _, msg in seen.repair_log
+        )
+
+
+def launch_runtime(live: Live, demo_dir: Path, board: int | None) -> subprocess.Popen[bytes]:
+    args = [
+        "roslaunch",
+        str(live.build / "observers.launch"),
+        f"robot_launch:={demo_dir / 'robot.launch'}",
+    ]
+    if board is not None:
+        args.append(f"board:=127.0.0.1:{board}")
+    return live.start(args, "runtime.log")
+
+
+def start_demo(
+    live: Live,
+    name: str,
+    faults: list[str],
+    model: Path | None = None,
+    board: int | None = None,
+    control: int | None = None,
+) -> tuple[subprocess.Popen[bytes], Path, float]:
+    demo_dir = live.tmp / name
+    model = model or live.tmp / "tedusar.ram"
+    args = [
+        *RACC,
+        "demo",
+        str(model),
+        "-o",
+        str(demo_dir),
+        "--board-port",
+        str(board or free_port()),
+        "--control-port",
+        str(control or free_port()),
+    ]
+    for f in faults:
+        args += ["--fault", f]
+    epoch = time.time()
+    proc = live.start(args, f"{name}.log")
+    return proc, demo_dir, epoch
+
+
+def test_demo_robot_faults_are_diagnosed_repaired_and_verified(live: Live) -> None:
+    seen = live.seen
+    board, control = free_port(), free_port()
+    crash_at, trip_at, freq_at = 25.0, 45.0, 65.0
+    demo, demo_dir, epoch = start_demo(
+        live,
+        "demo1",
+        [f"crash@{crash_at:g}:jaguar_node", f"trip@{trip_at:g}:jaguar", f"freq@{freq_at:g}:/scan"],
+        board=board,
+        control=control,
+    )
+    time.sleep(6.0)  # the demo's nodes are up
+    launched = time.time()
+    runtime = launch_runtime(live, demo_dir, board)
+    try:
+        healthy = seen.wait(all_ok_since(seen, launched, live.atoms), 15)
+        assert healthy is not None, "never all ok after launch"
+        print(f"\ntime to all-ok after launch: {healthy - launched:.2f} s")
+        assert healthy - launched <= 5.0
+
+        crash = epoch + crash_at
+        named = seen.wait(named_since(seen, crash, "jaguar_node"), crash - time.time() + 10)
+        assert named is not None, "the crash was not diagnosed"
+        print(f"time to diagnose the crash: {named - crash:.2f} s")
+        assert named - crash <= 3.0
+        ok_again = seen.wait(all_ok_since(seen, named, live.atoms), 15)
+        assert ok_again is not None and logged(seen, crash, "start_node", "jaguar_node")
+        print(f"time to recover from the crash: {ok_again - crash:.2f} s")
+        assert ok_again - crash <= 10.0
+
+        trip = epoch + trip_at
+        named = seen.wait(named_since(seen, trip, "jaguar"), trip - time.time() + 10)
+        assert named is not None, "the board trip was not diagnosed as jaguar"
+        print(f"time to diagnose the trip: {named - trip:.2f} s")
+        ok_again = seen.wait(all_ok_since(seen, named, live.atoms), 15)
+        assert ok_again is not None
+        assert logged(seen, trip, "power_up", "jaguar")
+        assert logged(seen, trip, "start_node", "jaguar_node")
+        print(f"time to recover from the trip: {ok_again - trip:.2f} s")
+        assert ok_again - trip <= 10.0
+
+        freq = epoch + freq_at
+        named = seen.wait(named_since(seen, freq, "hokuyo_node"), freq - time.time() + 10)
+        assert named is not None, "the 5x frequency fault was not diagnosed as hokuyo_node"
+        print(f"time to diagnose the frequency fault: {named - freq:.2f} s")
+    finally:
+        live.stop(runtime)
+        live.stop(demo)
+
+
+def test_record_learn_compile_relaunch_diagnoses_a_crash(live: Live) -> None:
+    seen = live.seen
+    crash_at = 45.0
+    demo, demo_dir, epoch = start_demo(live, "demo2", [f"crash@{crash_at:g}:imu_node"])
+    runtime = None
+    try:
+        time.sleep(6.0)
+        bag = live.tmp / "run1.bag"
+        subprocess.run(
+            [*RACC, "record", "-o", str(bag), "--duration", "15", "-q"],
+            check=True,
+            env=live.env,
+            timeout=60,
+        )
+        learned = live.tmp / "learned.ram"
+        subprocess.run(
+            [
+                *RACC,
+                "learn",
+                str(bag),
+                "--graph",
+                str(live.tmp / "run1.graph.yaml"),
+                "--properties",
+                str(live.tmp / "run1.properties.csv"),
+                "-o",
+                str(learned),
+                "-q",
+            ],
+            check=True,
+            env=live.env,
+            timeout=120,
+        )
+        build = live.tmp / "learned_build"
+        subprocess.run(
+            [*RACC, "compile", str(learned), "-o", str(build), "--no-svg", "-q"],
+            check=True,
+            env=live.env,
+            timeout=60,
+        )
+        assert time.time() < epoch + crash_at - 5, "recording and learning took too long"
+        launched = time.time()
+        runtime = live.start(
+            [
+                "roslaunch",
+                str(build / "observers.launch"),
+                f"robot_launch:={demo_dir / 'robot.launch'}",
+            ],
+            "learned.log",
+        )
+        crash = epoch + crash_at
+        named = seen.wait(named_since(seen, crash, "imu_node"), crash - time.time() + 10)
+        assert named is not None, "the learned model did not diagnose the crash"
+        assert named > launched
+        print(f"\nlearned model: crash diagnosed after {named - crash:.2f} s")
+    finally:
+        if runtime is not None:
+            live.stop(runtime)
+        live.stop(demo)

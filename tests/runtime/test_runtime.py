@@ -1,0 +1,227 @@
+"""The live runtime's engines without ROS: statuses, values, the host, the diagnoser, the
+repair executor (with a scripted actuator and clock), the process probe and the demo."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from rac.diagnosis import load_theory
+from rac.errors import RacError
+from rac.loader import load_model, load_observers
+from rac.logic import Atom
+from rac.observe import NodeSample, Verdict
+from rac.pipeline import compile_model
+from rac.runtime.demo import DemoNode, parse_demo_fault
+from rac.runtime.diagnoser import Diagnoser
+from rac.runtime.host import ObserverHost
+from rac.runtime.procs import ProcessProbe
+from rac.runtime.repairer import LogEntry, RepairExecutor, Settings, State
+from rac.runtime.status import (
+    channel_rows,
+    diagnosis_rows,
+    literal_row,
+    row_channel,
+    row_diagnosis,
+    row_verdict,
+)
+from rac.runtime.values import Decoders
+from rac.targets import EmitOptions, emit_all
+
+ROOT = Path(__file__).resolve().parents[2]
+TEDUSAR = ROOT / "models" / "tedusar.ram"
+
+
+@pytest.fixture(scope="module")
+def build(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("tedusar")
+    compiled = compile_model(load_model(TEDUSAR))
+    for name, text in emit_all(compiled, EmitOptions()).items():
+        (out / name).write_text(text, encoding="utf-8")
+    return out
+
+
+def test_literal_rows_round_trip() -> None:
+    v = Verdict(1.5, Atom("ok", ("pose",)), False)
+    row = literal_row(v, "pose_gobs")
+    assert (row.name, row.level, row.message, row.hardware_id) == (
+        "ok(pose)",
+        2,
+        "not_ok(pose)",
+        "pose_gobs",
+    )
+    back = row_verdict(row, 2.0)
+    assert back is not None and (back.atom, back.positive) == (v.atom, False)
+    assert row_verdict(literal_row(Verdict(0, Atom("running", ("a",)), True), "x"), 0).positive
+
+
+def test_diagnosis_and_channel_rows(build: Path) -> None:
+    theory = load_theory(str(build / "model.yaml"))
+    d = Diagnoser(theory, "tedusar", "engine")
+    assert diagnosis_rows(d.tick().result, "tedusar") == ()
+    d.observe(Verdict(0, Atom("running", ("jaguar_node",)), False))
+    tick = d.tick()
+    assert tick.changed and [row_diagnosis(r) for r in tick.rows] == [("jaguar_node",)]
+    assert tick.summary.level == 2 and "jaguar_node" in tick.summary.message
+    rows = channel_rows([(True, 1.0, 12.0), (False, 0.0, 0.0)], {1: "jaguar"})
+    assert rows[0].hardware_id == "jaguar" and rows[1].message == "off"
+    state = row_channel(rows[1], 3.0)
+    assert state is not None and (state.channel, state.on) == (2, False)
+
+
+def test_unknown_atoms_are_set_aside(build: Path) -> None:
+    d = Diagnoser(load_theory(str(build / "model.yaml")), "tedusar", "engine")
+    assert not d.observe(Verdict(0, Atom("ok", ("nowhere",)), False))
+    assert d.unknown == {Atom("ok", ("nowhere",))} and d.tick().result.consistent
+
+
+def test_demo_messages_decode_to_the_observed_fields(build: Path) -> None:
+    model = load_model(TEDUSAR)
+    demo = DemoNode(model, "imu_node", epoch=100.0, started=100.0)
+    (imu,) = demo.topics
+    reader = Decoders().for_topic(
+        "/imu_data", frozenset({"yaw", "pitch", "orientation.x"}), imu.ros_type, imu.definition
+    )
+    values = reader.values(demo.message(imu, 112.0))
+    assert set(values) == {"yaw", "pitch", "orientation.x"}
+    assert all(abs(v) < 10 for v in values.values())
+    servo = DemoNode(model, "laser_alignment_control", epoch=0.0, started=0.0).topics[0]
+    assert servo.ros_type == "tedusar_msgs/ServoState"
+
+
+def test_demo_faults_hit_only_the_process_running_at_their_time() -> None:
+    model = load_model(TEDUSAR)
+    crash = parse_demo_fault("crash@10:jaguar_node", model)
+    early = DemoNode(model, "jaguar_node", epoch=0.0, started=1.0, faults=[crash])
+    late = DemoNode(model, "jaguar_node", epoch=0.0, started=12.0, faults=[crash])
+    assert not early.crashed(9.0) and early.crashed(10.5) and not late.crashed(20.0)
+    with pytest.raises(RacError) as err:
+        parse_demo_fault("trip@5:imu", model)
+    assert err.value.diagnostics[0].code == "RAC113"
+
+
+def test_host_reports_changes_and_rows(build: Path) -> None:
+    _, specs = load_observers(build / "observers.yaml")
+    now = [0.0]
+    host = ObserverHost(specs, clock=lambda: now[0])
+    for k in range(8):
+        now[0] = k * 0.1
+        host.feed([NodeSample(now[0], "jaguar_node", False)])
+    # The θ rule: the first sample gives the first verdict, θ + 1 net violations flip it.
+    changes = [str(c) for c in host.take_changes()]
+    assert changes == ["running(jaguar_node)", "not_running(jaguar_node)"]
+    (row,) = host.rows()
+    assert row.hardware_id == "jaguar_node_nobs" and row.level == 2
+
+
+def test_process_probe_asks_once_then_uses_the_pid() -> None:
+    asked: list[str] = []
+
+    def resolve(node: str) -> int | None:
+        asked.append(node)
+        return os.getpid() if node == "me" else None
+
+    probe = ProcessProbe(["me", "gone"], resolve, [("me", "mem")])
+    first = probe.sample(0.0)
+    later = probe.sample(0.1)
+    assert asked == ["gone", "me"]  # "gone" is asked again only after resolve_every_s
+    assert [type(e).__name__ for e in first] == ["NodeSample", "NodeSample", "PropertySample"]
+    assert [(e.node, e.running) for e in later if isinstance(e, NodeSample)] == [
+        ("gone", False),
+        ("me", True),
+    ]
+
+
+class Script:
+    """A fake robot: actions change the observations the executor sees, or do nothing."""
+
+    def __init__(self, executor_box: list[RepairExecutor], works: bool = True) -> None:
+        self.box, self.works, self.calls = executor_box, works, []  # type: ignore[var-annotated]
+
+    def _set(self, atom: Atom, positive: bool) -> None:
+        if self.works:
+            self.box[0].observe(Verdict(0, atom, positive))
+
+    def stop_node(self, node: str) -> None:
+        self.calls.append(("stop_node", node))
+        self._set(Atom("running", (node,)), False)
+
+    def start_node(self, node: str) -> None:
+        self.calls.append(("start_node", node))
+        self._set(Atom("running", (node,)), True)
+
+    def switch(self, device: str, on: bool) -> None:
+        self.calls.append(("power_up" if on else "shutdown", device))
+        self._set(Atom("on", (device,)), on)
+
+
+def _executor(
+    build: Path, works: bool
+) -> tuple[RepairExecutor, Script, list[LogEntry], list[float]]:
+    theory = load_theory(str(build / "model.yaml"))
+    now = [0.0]
+    log: list[LogEntry] = []
+    box: list[RepairExecutor] = []
+    script = Script(box, works)
+    ex = RepairExecutor(
+        theory,
+        "tedusar",
+        script,
+        log.append,
+        clock=lambda: now[0],
+        settings=Settings(step_timeout_s=1.0, verify_timeout_s=2.0),
+    )
+    box.append(ex)
+    return ex, script, log, now
+
+
+def test_executor_restarts_a_crashed_node_and_verifies(build: Path) -> None:
+    ex, script, log, now = _executor(build, works=True)
+    ex.observe(Verdict(0, Atom("running", ("jaguar_node",)), False))
+    ex.diagnosis((("jaguar_node",),))
+    for k in range(10):
+        now[0] = 0.1 * k
+        ex.tick()
+    assert script.calls == [("start_node", "jaguar_node")]
+    assert ex.state is State.VERIFYING
+    now[0] = 1.5
+    ex.diagnosis(())
+    ex.tick()
+    assert ex.state is State.IDLE and ex.repairs == 1
+    assert [e.action for e in log] == ["plan", "start_node", "start_node", "verify"]
+
+
+def test_executor_retries_once_then_escalates(build: Path) -> None:
+    ex, script, log, now = _executor(build, works=False)
+    ex.observe(Verdict(0, Atom("running", ("jaguar_node",)), False))
+    ex.diagnosis((("jaguar_node",),))
+    for k in range(40):
+        now[0] = 0.1 * k
+        ex.tick()
+    assert script.calls == [("start_node", "jaguar_node")] * 2
+    assert ex.escalations == 1 and ex.state is State.IDLE
+    assert any(e.action == "escalate" and "RAC110" in e.message for e in log)
+
+
+def test_observers_yaml_errors(tmp_path: Path) -> None:
+    bad = tmp_path / "observers.yaml"
+    bad.write_text("observers: 3\n")
+    with pytest.raises(RacError) as err:
+        load_observers(bad)
+    assert err.value.diagnostics[0].code == "RAC056"
+
+
+def test_without_ros_the_nodes_say_how_to_get_it(
+    build: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import importlib.util
+
+    if importlib.util.find_spec("rospy") is not None:
+        pytest.skip("rospy is importable here")
+    from rac.cli import main
+
+    assert main(["engine", str(build / "model.yaml")]) == 1
+    err = capsys.readouterr().err
+    assert "RAC057" in err and "--system-site-packages" in err
