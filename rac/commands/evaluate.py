@@ -13,6 +13,7 @@ from rac.commands.common import add_command, load_and_compile, load_checked, wri
 from rac.commands.replay import add_replay_options
 from rac.errors import Diagnostic, RacError
 from rac.evaluate.evaluation import Candidate
+from rac.ir import Model
 
 
 def _number(text: str) -> float:
@@ -85,6 +86,14 @@ def register(sub: Any) -> None:
         help="seconds after a fault's end that still count (default: 5)",
     )
     add_replay_options(parser)
+    parser.add_argument(
+        "-j",
+        "--jobs",
+        metavar="N",
+        type=int,
+        default=0,
+        help="learn and replay on N processes (default: one per core)",
+    )
     form = parser.add_mutually_exclusive_group()
     form.add_argument("--markdown", action="store_true", help="print Markdown tables")
     form.add_argument("--json", action="store_true", help="print JSON")
@@ -110,6 +119,7 @@ def _check(args: argparse.Namespace) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from rac.evaluate.evaluation import TestRun, evaluate
+    from rac.evaluate.parallel import default_jobs
     from rac.evaluate.report import render, to_json
     from rac.replay.engine import ReplayOptions
     from rac.replay.load import load_runs, needs_of, properties_for, truth_for
@@ -132,15 +142,12 @@ def run(args: argparse.Namespace) -> int:
                 print(f"note: {note}", file=sys.stderr)
         runs.append(TestRun(path, inputs, truth.faults))
     options = ReplayOptions(diagnose_every=args.diagnose_every, max_card=args.max_card)
-    progress = None
+    jobs = args.jobs or default_jobs()
     if not args.quiet and sys.stderr.isatty():
-
-        def progress(what: str) -> None:
-            print(f"\r\033[Kreplaying {what}", end="", file=sys.stderr, flush=True)
-
-    result = evaluate(candidates, runs, options, args.grace, progress)
-    if progress is not None:
-        print("\r\033[K", end="", file=sys.stderr, flush=True)
+        cores = min(jobs, len(candidates) * len(runs))
+        what = f"{len(candidates)} models over {len(runs)} runs on {cores} processes"
+        print(f"replaying {what} …", file=sys.stderr, flush=True)
+    result = evaluate(candidates, runs, options, args.grace, jobs)
     text = to_json(result) if args.json else render(result, markdown=args.markdown)
     if args.output:
         write_file_atomically(Path(args.output), text)
@@ -185,26 +192,36 @@ def _learned(args: argparse.Namespace, quiet: bool) -> list[Candidate]:
                 for prop, values in props.items():
                     into[prop].extend(values)
     properties = property_stats(samples)
+    grid = [(q, alpha) for q in args.q for alpha in args.alpha]
+
+    def learn_one(params: tuple[float, float]) -> Model:
+        q, alpha = params
+        return learn(
+            recording, LearnOptions(alpha=alpha, q=q), base=base, properties=properties
+        ).model
+
+    from rac.evaluate.parallel import default_jobs, run_all
+    from rac.learn.validate import prepare
+
+    prepare(recording)  # the workers inherit the training runs' message streams
+    models = run_all(learn_one, grid, args.jobs or default_jobs())
     out: list[Candidate] = []
-    for q in args.q:
-        for alpha in args.alpha:
-            label = f"M{len(out) + 1}"
-            options = LearnOptions(alpha=alpha, q=q)
-            model = learn(recording, options, base=base, properties=properties).model
-            compiled = compile_model(model)
-            if args.save_models:
-                Path(args.save_models).mkdir(parents=True, exist_ok=True)
-                path = Path(args.save_models) / f"{label}.ram"
-                write_file_atomically(path, format_model(model))
-            out.append(
-                Candidate(
-                    label, f"learned Q={q:g} alpha={alpha:g}", replayable(compiled, label), q, alpha
-                )
-            )
+    for (q, alpha), model in zip(grid, models, strict=True):
+        label = f"M{len(out) + 1}"
+        compiled = compile_model(model)
+        if args.save_models:
+            Path(args.save_models).mkdir(parents=True, exist_ok=True)
+            write_file_atomically(Path(args.save_models) / f"{label}.ram", format_model(model))
+        source = f"learned Q={q:g} alpha={alpha:g}"
+        out.append(Candidate(label, source, replayable(compiled, label), q, alpha))
     if not quiet:
         print(
-            f"learned {len(out)} models from {recording.messages} messages in "
-            f"{len(recording.runs)} run(s)",
+            f"learned {_count(len(out), 'model')} from {recording.messages} messages in "
+            f"{_count(len(recording.runs), 'run')}",
             file=sys.stderr,
         )
     return out
+
+
+def _count(n: int, word: str) -> str:
+    return f"{n} {word}" if n == 1 else f"{n} {word}s"

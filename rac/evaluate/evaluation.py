@@ -7,10 +7,11 @@ per-fault table show, and the comparison of the best model with the worst.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
-from rac.evaluate.score import DEFAULT_GRACE_S, FalsePositive, FaultOutcome, score_run
+from rac.evaluate.parallel import run_all
+from rac.evaluate.score import DEFAULT_GRACE_S, FalsePositive, FaultOutcome, RunScore, score_run
 from rac.replay.engine import ReplayOptions, replay
 from rac.replay.load import Replayable
 from rac.replay.sources import RunInputs
@@ -90,21 +91,25 @@ def evaluate(
     runs: Sequence[TestRun],
     options: ReplayOptions | None = None,
     grace: float = DEFAULT_GRACE_S,
-    progress: Callable[[str], None] | None = None,
+    jobs: int = 1,
 ) -> Evaluation:
-    options = options or ReplayOptions()
+    """Every candidate over every run, on up to ``jobs`` cores."""
+    replay_options = options or ReplayOptions()
+
+    def one(pair: tuple[int, int]) -> RunScore:
+        c, r = candidates[pair[0]], runs[pair[1]]
+        timeline = replay(
+            c.model.specs, c.model.theory, r.inputs.events, r.inputs.duration, replay_options
+        )
+        return score_run(timeline, r.faults, grace)
+
+    pairs = [(i, j) for i in range(len(candidates)) for j in range(len(runs))]
+    scores = dict(zip(pairs, run_all(one, pairs, jobs), strict=True))
     results = []
-    for c in candidates:
-        outcomes: list[tuple[str, FaultOutcome]] = []
-        fps: list[tuple[str, FalsePositive]] = []
-        for r in runs:
-            if progress is not None:
-                progress(f"{c.label} on {r.path}")
-            timeline = replay(
-                c.model.specs, c.model.theory, r.inputs.events, r.inputs.duration, options
-            )
-            score = score_run(timeline, r.faults, grace)
-            outcomes.extend((r.path, o) for o in score.outcomes)
-            fps.extend((r.path, fp) for fp in score.false_positives)
-        results.append(ModelResult(c, observer_counts(c.model), tuple(outcomes), tuple(fps)))
+    for i, c in enumerate(candidates):
+        outcomes = tuple((r.path, o) for j, r in enumerate(runs) for o in scores[(i, j)].outcomes)
+        fps = tuple(
+            (r.path, fp) for j, r in enumerate(runs) for fp in scores[(i, j)].false_positives
+        )
+        results.append(ModelResult(c, observer_counts(c.model), outcomes, fps))
     return Evaluation(tuple(results), tuple(runs), grace)

@@ -91,8 +91,11 @@ def _outcome_table(ev: Evaluation, markdown: bool) -> str:
 def _vector_table(ev: Evaluation, markdown: bool) -> str:
     n = len(ev.results[0].vector) if ev.results else 0
     headers = ["model", *(str(i) for i in range(1, n + 1)), "mu", "sigma"]
-    rows = []
+    rows: list[list[object]] = []
     for m in ev.results:
+        if not m.vector:
+            rows.append([m.candidate.label, None, None])
+            continue
         summary = stats.summarize(m.vector)
         mu, sigma = summary.mean, summary.sd
         rows.append([m.candidate.label, *m.vector, mu, sigma])
@@ -164,7 +167,8 @@ def render(ev: Evaluation, markdown: bool) -> str:
         f"{head}Observers per model (Table 10.1)",
         _observer_table(ev, markdown),
         "",
-        f"{head}Faults reported (Table 10.2): {faults} faults in {len(ev.runs)} runs, "
+        f"{head}Faults reported (Table 10.2): {_count(faults, 'fault')} in "
+        f"{_count(len(ev.runs), 'run')}, "
         f"grace {ev.grace:g} s",
         _outcome_table(ev, markdown),
         "",
@@ -246,3 +250,7 @@ def _model_json(m: ModelResult, ev: Evaluation) -> dict[str, Any]:
         "mu": mu,
         "sigma": sigma,
     }
+
+
+def _count(n: int, word: str) -> str:
+    return f"{n} {word}" if n == 1 else f"{n} {word}s"

@@ -25,6 +25,8 @@ from rac.learn.relations import LearnedRelation, group_relations
 from rac.learn.trends import topic_trends
 from rac.learn.validate import failures
 
+STEADY_RATIO = 4.0  # Δ̄/σ(Δ) of a topic whose samples may be integrated by a running sum
+
 
 @dataclass(frozen=True, slots=True)
 class LearnResult:
@@ -283,7 +285,10 @@ def learn(
         notes.append(f"property samples of nodes not in the model, ignored: {', '.join(stray)}")
     nodes = [_limits(n, properties, options.sigmas) for n in nodes]
     declared = {t.name.value for t in learned_topics}
-    regular = {t.name.value for t in learned_topics if t.regular}
+    # I() needs a steady rate whatever α says: a running sum of samples follows the
+    # integral only when the samples come evenly.
+    steady = {r.topic for r in rates if r.ratio >= STEADY_RATIO}
+    regular = {t.name.value for t in learned_topics if t.regular} & steady
     related, kept = _learn_relations(
         recording, options, declared, published & declared, undeclared, regular
     )
@@ -312,12 +317,14 @@ def learn(
         trailing_comments=tuple(trailing),
     )
     if options.validate:
-        # Dropping a rate changes the windows of the relations on that topic: check again.
+        # Dropping a rate changes the windows of the relations on that topic: check again
+        # then (a model whose rates all held is checked once).
         for _ in range(3):
             checked = _without_false_alarms(model, recording, notes)
-            if checked is model:
-                break
+            rates_kept = [t.rate_hz for t in checked.topics] == [t.rate_hz for t in model.topics]
             model = checked
+            if rates_kept:
+                break
     return LearnResult(model, tuple(rates), tuple(kept), tuple(properties), tuple(notes), options)
 
 

@@ -14,7 +14,10 @@ from dataclasses import dataclass
 
 from rac.ir import Model
 from rac.learn.recording import Recording, message_stream
-from rac.observe.bank import ObserverBank
+from rac.observe.base import Observer
+from rac.observe.build import build_all
+from rac.observe.events import Message
+from rac.passes.observers import ObserverSpec
 from rac.pipeline import compile_model
 
 CHECKED = ("GObs", "BiQObs")
@@ -31,23 +34,44 @@ class Failure:
 def failures(model: Model, recording: Recording) -> tuple[Failure, ...]:
     """The GObs and BiQObs of ``model`` that report a fault on a run of ``recording``."""
     specs = [s for s in compile_model(model).observers if s.kind in CHECKED]
-    if not specs:
-        return ()
     where = _positions(model)
-    found: dict[tuple[str, int], Failure] = {}
+    # A grid of models learned from one recording shares most observers: each spec (its
+    # kind and parameters) is replayed once, and its outcome remembered.
+    memo = _MEMO.setdefault(id(recording), (recording, {}))
+    if memo[0] is not recording:
+        memo = _MEMO[id(recording)] = (recording, {})
+    known = memo[1]
+    todo = [s for s in specs if (s.kind, s.params) not in known]
+    for spec, outcome in zip(todo, _replay(todo, recording), strict=True):
+        known[(spec.kind, spec.params)] = outcome
+    found = []
+    for spec in specs:
+        outcome = known[(spec.kind, spec.params)]
+        if outcome is not None:
+            kind, index = where[str(spec.atoms[0])]
+            found.append(Failure(kind, index, *outcome))
+    return tuple(sorted(found, key=lambda f: (f.kind, f.index)))
+
+
+_MEMO: dict[int, tuple[Recording, dict[tuple[str, object], tuple[str, float] | None]]] = {}
+
+
+def _replay(specs: list[ObserverSpec], recording: Recording) -> list[tuple[str, float] | None]:
+    """Per spec, the run and time of its first fault on the recording, or None."""
+    failed: dict[int, tuple[str, float]] = {}
     for segment, run in enumerate(recording.runs):
-        origin = min(
-            (float(t.times[t.segments == segment][0]) for t in recording.topics
-             if (t.segments == segment).any()),
-            default=0.0,
-        )  # fmt: skip
-        bank = ObserverBank(specs)
-        for message in message_stream(recording.topics, origin, segment):
-            for verdict in bank.feed(message):
-                key = where[str(verdict.atom)]
-                if not verdict.positive and key not in found:
-                    found[key] = Failure(key[0], key[1], run.path, verdict.t)
-    return tuple(sorted(found.values(), key=lambda f: (f.kind, f.index)))
+        # Each observer on its own, dropped once it has failed: most false relations fail
+        # early, and the rest of the run need not be replayed for them.
+        readers: dict[str, list[tuple[int, Observer]]] = {}
+        for i, obs in enumerate(build_all(specs)):
+            if i not in failed:
+                for topic, _ in obs.needs.topics:
+                    readers.setdefault(topic, []).append((i, obs))
+        for message in _stream(recording, segment, frozenset(readers)):
+            for i, obs in readers.get(message.topic, ()):
+                if i not in failed and any(not v.positive for v in obs.feed(message)):
+                    failed[i] = (run.path, message.t)
+    return [failed.get(i) for i in range(len(specs))]
 
 
 def _positions(model: Model) -> dict[str, tuple[str, int]]:
@@ -62,3 +86,30 @@ def _positions(model: Model) -> dict[str, tuple[str, int]]:
     for i, spec in enumerate(biq):
         out[str(spec.atoms[0])] = ("BiQObs", i)
     return out
+
+
+# Learning a grid of models checks each against the same recording: build its message
+# streams once.  Keyed by the recording's identity, which the cache keeps alive.
+_STREAMS: dict[tuple[int, int], tuple[Recording, frozenset[str], list[Message]]] = {}
+
+
+def _stream(recording: Recording, segment: int, topics: frozenset[str]) -> list[Message]:
+    """Run ``segment``'s messages on ``topics``, times from its first message."""
+    hit = _STREAMS.get((id(recording), segment))
+    if hit is not None and hit[0] is recording and topics <= hit[1]:
+        return [m for m in hit[2] if m.topic in topics]
+    mine = [t for t in recording.topics if (t.segments == segment).any()]
+    origin = min((float(t.times[t.segments == segment][0]) for t in mine), default=0.0)
+    every = frozenset(t.name for t in mine)
+    messages = message_stream(mine, origin, segment)
+    if len(_STREAMS) >= 4:
+        _STREAMS.pop(next(iter(_STREAMS)))
+    _STREAMS[(id(recording), segment)] = (recording, every, messages)
+    return [m for m in messages if m.topic in topics]
+
+
+def prepare(recording: Recording) -> None:
+    """Build the message streams of every run now (before forking workers that share them)."""
+    every = frozenset(t.name for t in recording.topics)
+    for segment in range(len(recording.runs)):
+        _stream(recording, segment, every)

@@ -14,6 +14,7 @@ from rac.observe.iobs import IObs
 from rac.observe.nobs import NObs
 from rac.observe.params import spec_error
 from rac.observe.pobs import PObs
+from rac.observe.qobs import QObs
 from rac.passes.observers import ObserverSpec
 
 KINDS: dict[str, Callable[[ObserverSpec], Observer]] = {
@@ -48,4 +49,21 @@ def build_all(specs: Iterable[ObserverSpec]) -> tuple[Observer, ...]:
             problems.extend(error.diagnostics)
     if problems:
         raise RacError(problems)
+    _share_trends(built)
     return tuple(built)
+
+
+def _share_trends(observers: list[Observer]) -> None:
+    """One trend per signal: relations that share a side (a 100 Hz IMU heading in two
+    relations) share its QObs, which skips a message it has already taken."""
+    pool: dict[tuple[str, str, bool, float, float | None], QObs] = {}
+    for obs in observers:
+        if not isinstance(obs, BiQObs):
+            continue
+        for attr, topic, field in (
+            ("side1", obs.topic1, obs.field1),
+            ("side2", obs.topic2, obs.field2),
+        ):
+            side: QObs = getattr(obs, attr)
+            key = (topic, field, side.integral, side.ws, side.slope)
+            setattr(obs, attr, pool.setdefault(key, side))

@@ -214,6 +214,7 @@ class QObs:
         self._s1: deque[tuple[float, float]] = deque()
         self._s2: deque[float] = deque()
         self._sum = 0.0
+        self._last_t = math.nan
         self.latest: Trend | None = None  # Θ_p: the last trend given
         self.latest_t = math.nan  # the time that trend belongs to
         self.latest_slope = math.nan  # β of that sample
@@ -249,7 +250,12 @@ class QObs:
         return found
 
     def push(self, t: float, v: float) -> list[tuple[float, Trend]]:
-        """Add a sample of the field; return the trends it decides, (time, trend) in order."""
+        """Add a sample of the field; return the trends it decides, (time, trend) in order.
+        A sample at the time of the previous one is the same message, passed on by another
+        relation sharing this trend: it is taken once."""
+        if t == self._last_t:
+            return []
+        self._last_t = t
         if self.integral:
             self._sum += v
             v = self._sum

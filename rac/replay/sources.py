@@ -120,6 +120,8 @@ def _diagnostics(path: str, start: float) -> Iterable[DeviceStatus]:
     try:
         with AnyReader([p], default_typestore=store) as reader:
             conns = [c for c in reader.connections if c.topic == DIAGNOSTICS_TOPIC]
+            if not conns:  # an empty list would mean every connection to rosbags
+                return out
             for conn, stamp, raw in reader.messages(connections=conns):
                 msg = reader.deserialize(raw, conn.msgtype)
                 t = stamp * 1e-9 - start
