@@ -134,7 +134,7 @@ EXPECTED_TARGETS = {
     PIONEER: {
         "slip": "/pose",
         "cpu": "p2os",
-        "mem": "rviz",
+        "mem": "slam_gmapping",
         "freq": "/pose",
         "crash": "teleop_joy",
     },

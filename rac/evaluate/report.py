@@ -103,15 +103,17 @@ def _vector_table(ev: Evaluation, markdown: bool) -> str:
 
 
 def ranked(ev: Evaluation) -> tuple[ModelResult, ModelResult] | None:
-    """The best and the worst model: most faults reported, then fewest false positives."""
+    """The best and the worst model: most faults reported, then fewest false positives;
+    ties go to the earlier model.  None with fewer than two models, or when all scored
+    alike."""
     if len(ev.results) < 2:
         return None
 
     def key(m: ModelResult) -> tuple[int, int]:
         return (sum(m.vector), -len(m.false_positives))
 
-    order = sorted(ev.results, key=key)  # stable: ties keep the models' order
-    return order[-1], order[0]
+    best, worst = max(ev.results, key=key), min(ev.results, key=key)
+    return None if key(best) == key(worst) else (best, worst)
 
 
 def comparison(ev: Evaluation) -> dict[str, Any] | None:
@@ -144,6 +146,9 @@ def comparison(ev: Evaluation) -> dict[str, Any] | None:
 def _comparison_text(ev: Evaluation) -> list[str]:
     c = comparison(ev)
     if c is None:
+        if len(ev.results) >= 2 and any(r.faults for r in ev.runs):
+            return ["every model reported the same number of faults with as many false "
+                    "positives: nothing to compare"]  # fmt: skip
         return ["(the comparison needs at least two models and one fault)"]
 
     def verdict(entry: dict[str, Any]) -> str:

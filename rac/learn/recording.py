@@ -145,7 +145,8 @@ def _read(
     stamps: dict[str, list[int]] = {t: [] for t in types}
     rows: dict[str, list[tuple[float, ...]]] = {t: [] for t in extract}
     count = 0
-    for conn, stamp, raw in reader.messages(connections=connections):
+    # rosbags reads every connection when given none: none wanted means nothing to read.
+    for conn, stamp, raw in reader.messages(connections=connections) if connections else ():
         count += 1
         stamps[conn.topic].append(stamp)
         get = extract.get(conn.topic)

@@ -45,6 +45,10 @@ class _Diagnoser:
         hit = self.memo.get(key)
         if hit is None:
             result = diagnose(self.theory, literals, self.max_card)
+            if not result.consistent and not result.diagnoses and result.bounded:
+                # More faults than the bound at once (a robot that is down): search them
+                # all rather than publish "consistent".
+                result = diagnose(self.theory, literals, None)
             hit = self.memo[key] = result.diagnoses if not result.consistent else ()
         return hit
 

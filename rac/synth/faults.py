@@ -13,7 +13,7 @@ FAULT_KINDS = {
     "crash": "node",  # the node whose topics stop
     "freq": "topic",  # the topic published five times as often
     "cpu": "node",  # the node whose CPU use rises (properties CSV)
-    "mem": "node",  # the node whose memory use doubles (properties CSV)
+    "mem": "node",  # the node whose memory use doubles, past its limit (properties CSV)
 }
 FREQ_FACTOR = 5.0
 ODOMETRY = "nav_msgs/Odometry"

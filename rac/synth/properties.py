@@ -2,7 +2,8 @@
 
 Each node uses a steady share of its model limits (40 % of its CPU limit, half its memory
 limit; 5 % and 50 MB without limits) with noise, sampled at 2 Hz.  ``cpu`` and ``mem``
-faults raise them (CPU to twice the limit and at least 30 %, memory doubled); a crashed
+faults raise them (CPU to twice the limit and at least 30 %, memory doubled and at least
+1.5 times the limit, so that a model's own limit sees it); a crashed
 node has no samples after its crash.
 """
 
@@ -41,7 +42,8 @@ def properties_csv(
                 limit = node.limits.cpu if node.limits.cpu is not None else DEFAULT_CPU
                 cpu[during] = max(30.0, 2 * limit) + rng.normal(0.0, 1.0, int(during.sum()))
             elif f.kind == "mem":
-                mem[during] *= 2.0
+                floor = 1.5 * node.limits.mem if node.limits.mem is not None else 0.0
+                mem[during] = np.maximum(mem[during] * 2.0, floor)
             elif f.kind == "crash":
                 alive &= ~during
         for t, c, m, a in zip(times, cpu, mem, alive, strict=True):

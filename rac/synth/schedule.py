@@ -10,7 +10,8 @@ the order :data:`ORDER`, each retracted before the next begins.  Targets, by rul
 - freq (five times the rate): that topic if it has a rate, as the thesis did with /pose;
   else the first regular topic by name (an irregular topic has no rate to break).
 - cpu: the odometry topic's first publisher by name (the thesis raised p2os's).
-- mem: the node with the largest memory limit, ties by name.
+- mem: the node with the largest memory limit among those that publish (the thesis doubled
+  gmapping's memory, not the viewer's), else among all; ties by name.
 - crash: a software node (it drives no hardware) that publishes, preferring one whose
   output feeds a hardware driver (teleop_joy feeds p2os), then one whose output feeds any
   node, then by name.
@@ -111,6 +112,7 @@ def thesis_targets(model: Model) -> tuple[tuple[tuple[str, str], ...], tuple[str
     )
     targets["freq"] = regular[0].name.value if regular else None
     limited = [n for n in model.nodes if n.limits.mem is not None]
+    limited = [n for n in limited if n.publishes] or limited
     biggest = min(limited, key=lambda n: (-(n.limits.mem or 0), n.name.value), default=None)
     targets["mem"] = biggest.name.value if biggest else None
     crash = _crash_target(model)

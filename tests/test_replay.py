@@ -1,0 +1,131 @@
+"""racc replay end to end: recordings not made by racc, synthetic runs with ground truth,
+ROS 2 bags, the timeline file, the plot, and the errors a user meets."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import foreign_bag
+import pytest
+
+from rac.cli import main
+from rac.evaluate.score import score_run
+from rac.replay.timeline import DiagnosisRecord, ObservationRecord, Timeline
+from rac.synth.truth import InjectedFault, load_truth
+
+ROOT = Path(__file__).resolve().parent.parent
+PIONEER = str(ROOT / "models" / "pioneer.ram")
+TEDUSAR = str(ROOT / "models" / "tedusar.ram")
+
+
+def read_timeline(path: Path, duration: float) -> Timeline:
+    records: list[ObservationRecord | DiagnosisRecord] = []
+    for line in path.read_text().splitlines():
+        doc = json.loads(line)
+        assert set(doc) in ({"t", "observation"}, {"t", "diagnoses"}), doc
+        if "observation" in doc:
+            records.append(ObservationRecord(doc["t"], doc["observation"]))
+        else:
+            records.append(DiagnosisRecord(doc["t"], tuple(tuple(d) for d in doc["diagnoses"])))
+    return Timeline(tuple(records), duration)
+
+
+@pytest.fixture(scope="module")
+def foreign(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    d = tmp_path_factory.mktemp("foreign")
+    bag, csv = d / "robot.bag", d / "robot_properties.csv"
+    foreign_bag.write(bag, csv)
+    return bag, csv
+
+
+def test_a_recording_not_made_by_racc_finds_each_culprit(
+    foreign: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bag, csv = foreign
+    out = tmp_path / "timeline.jsonl"
+    assert main(["replay", PIONEER, str(bag), "--properties", str(csv), "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "episode 1:" in text
+    timeline = read_timeline(out, foreign_bag.DURATION)
+    faults = [
+        InjectedFault(what, target, start, end, (culprit,))
+        for what, target, start, end, culprit in foreign_bag.FAULTS
+    ]
+    score = score_run(timeline, faults, grace=5.0)
+    for outcome in score.outcomes:
+        assert outcome.reported, outcome
+        # Diagnosed while the fault lasts, and soon where the observer allows: a topic's
+        # rate within about θ messages; with 1 Hz properties a crash within θ + 1.5
+        # samples and an overload once the 10-sample mean passes the limit plus θ + 1
+        # samples; diverging headings only once the robot turns the other way.
+        soon = {"stopped topic": 4.0, "5x rate": 4.0, "crashed node": 8.0, "cpu overload": 12.0}
+        assert outcome.first is not None and outcome.first <= outcome.fault.end, outcome
+        bound = soon.get(outcome.fault.kind)
+        if bound is not None:
+            assert outcome.first <= outcome.fault.start + bound, outcome
+    assert score.false_positives == ()
+    # Before the first fault every observation holds and nothing is diagnosed.
+    early = [r for r in timeline.records if r.t < foreign_bag.FAULTS[0][2]]
+    for r in early:
+        if isinstance(r, DiagnosisRecord):
+            assert not r.diagnoses, r
+        else:
+            assert not r.literal.startswith("not_"), r
+
+
+def test_the_thesis_schedule_is_replayed_against_its_ground_truth(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = tmp_path / "test.bag"
+    args = ["synth", PIONEER, "-o", str(run), "--duration", "300", "--seed", "3"]
+    assert main([*args, "--schedule", "thesis", "-q"]) == 0
+    out, png = tmp_path / "t.jsonl", tmp_path / "t.png"
+    plot = ["--plot", str(png)] if _has_matplotlib() else []
+    assert main(["replay", PIONEER, str(run), "-o", str(out), *plot]) == 0
+    printed = capsys.readouterr().out
+    truth = load_truth(tmp_path / "test.faults.yaml")
+    score = score_run(read_timeline(out, truth.duration), truth.faults)
+    missed = [o.fault.kind for o in score.outcomes if not o.reported]
+    # A slip shows only while the robot's manoeuvre lets the two headings disagree; the
+    # other faults always show.
+    assert set(missed) <= {"slip"} and missed.count("slip") <= 1, missed
+    assert score.false_positives == ()
+    assert printed.count("fault ") == len(truth.faults)
+    if plot:
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_ros2_bag_replays(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    run = tmp_path / "run2"
+    args = ["synth", TEDUSAR, "-o", str(run), "--ros2", "--duration", "60", "-q"]
+    assert main([*args, "--fault", "crash@30+20:hector_mapping"]) == 0
+    assert main(["replay", TEDUSAR, str(run)]) == 0
+    out = capsys.readouterr().out
+    assert "diagnosed [hector_mapping]" in out
+    assert "fault crash hector_mapping 30-50 s: reported" in out
+
+
+def test_replay_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["replay", PIONEER, str(tmp_path / "missing.bag")]) == 1
+    assert "RAC080" in capsys.readouterr().err
+    run = tmp_path / "r.bag"
+    assert main(["synth", PIONEER, "-o", str(run), "--duration", "20", "-q"]) == 0
+    assert main(["replay", PIONEER, str(run), str(run), "--properties", "a.csv"]) == 1
+    assert "RAC051" in capsys.readouterr().err
+    other = tmp_path / "other.ram"
+    other.write_text("robot other\ntopic /nothing : std_msgs/Float64 { data } @ 10 Hz\n"
+                     "node n { publishes /nothing }\n")  # fmt: skip
+    assert main(["replay", str(other), str(run)]) == 1
+    assert "holds none of the model's topics (/nothing)" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_:
+        main(["replay", PIONEER, str(run), "--diagnose-every", "0s"])
+    assert exit_.value.code == 2
+
+
+def _has_matplotlib() -> bool:
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        return False
+    return True
