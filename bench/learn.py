@@ -60,6 +60,21 @@ def bench_model() -> str:
     return "\n".join(lines) + "\n"
 
 
+def rosbags_read(run: Path) -> tuple[float, int]:
+    """The peer: rosbags' AnyReader reading and deserializing every message of the bag."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE if run.is_dir() else Stores.ROS1_NOETIC)
+    started = time.perf_counter()
+    count = 0
+    with AnyReader([run], default_typestore=store) as reader:
+        for conn, _, raw in reader.messages():
+            reader.deserialize(raw, conn.msgtype)
+            count += 1
+    return time.perf_counter() - started, count
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -93,6 +108,7 @@ def main() -> int:
         started = time.perf_counter()
         recording = read_recording([run], FieldSelector(declared))
         read_s = time.perf_counter() - started
+        peer_s, peer_count = rosbags_read(run)
         stats = property_stats(parse_properties(plan.properties, "properties.csv"))
         result = learn(recording, LearnOptions(), base=model, properties=stats)
         compile_model(result.model)
@@ -101,6 +117,12 @@ def main() -> int:
     print(
         f"read: {recording.messages} messages in {read_s:.2f} s = "
         f"{recording.messages / read_s:,.0f} messages/s ({signals} signals)"
+    )
+    ours, theirs = recording.messages / read_s, peer_count / peer_s
+    print(
+        f"peer, rosbags' own read + deserialize of every message: {peer_count} in "
+        f"{peer_s:.2f} s = {theirs:,.0f} messages/s; racc/rosbags {ours / theirs:.2f} "
+        f"(issue 14's bar: >= 0.9)"
     )
     print(f"learn: {total_s:.2f} s in total ({total_s - read_s:.2f} s after reading)")
     print(f"observers: {observer_counts(result.model)}")

@@ -13,6 +13,7 @@ import sys
 from collections.abc import Sequence
 
 from rac import __version__
+from rac.commands.common import CommandParser
 from rac.errors import RacError
 
 EXIT_OK = 0
@@ -67,7 +68,8 @@ exit codes: 0 done, 1 the input is wrong, 2 the command line is wrong, 3 no repa
   traceback)"""
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The parser of every command, or of ``only`` (a command's imports are its own cost)."""
     parser = argparse.ArgumentParser(
         prog="racc",
         description=DESCRIPTION,
@@ -80,15 +82,23 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="on an internal error, print the Python traceback (also: RACC_DEBUG=1)",
     )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name in COMMANDS:
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=CommandParser)
+    for name in COMMANDS if only is None else (only,):
         module = importlib.import_module(f"rac.commands.{name.replace('-', '_')}")
         module.register(sub)
     return parser
 
 
+def _command_of(argv: Sequence[str]) -> str | None:
+    """The command named on the command line, when it is one of :data:`COMMANDS`."""
+    for arg in argv:
+        if not arg.startswith("-"):
+            return arg if arg in COMMANDS else None
+    return None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
+    parser = build_parser(_command_of(sys.argv[1:] if argv is None else argv))
     args = parser.parse_args(argv)
     if getattr(args, "run", None) is None:
         parser.print_help(sys.stderr)

@@ -3,15 +3,16 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import yaml
 
 from rac.errors import Diagnostic, RacError
-from rac.interchange import parse_json
-from rac.ir import Model
 from rac.logic import parse_atom
-from rac.parse import parse_ram
-from rac.passes.observers import ObserverSpec, ParamValue
+
+if TYPE_CHECKING:  # the parsers and passes load on first use: `racc diagnose x.yaml` needs none
+    from rac.ir import Model
+    from rac.passes.observers import ObserverSpec, ParamValue
 
 
 def read_text(path: str | Path) -> str:
@@ -29,6 +30,9 @@ def read_text(path: str | Path) -> str:
 
 def load_model(path: str | Path) -> Model:
     """Parse (not validate) a model; the suffix picks the format."""
+    from rac.interchange import parse_json
+    from rac.parse import parse_ram
+
     text = read_text(path)
     if str(path).endswith(".json"):
         return parse_json(text, str(path))
@@ -53,6 +57,8 @@ def load_observers(path: str | Path) -> tuple[str, tuple[ObserverSpec, ...]]:
         raise bad(f"not YAML: {err}") from None
     if not isinstance(data, dict) or not isinstance(data.get("observers"), list):
         raise bad("expected a mapping with a list 'observers'")
+    from rac.passes.observers import ObserverSpec
+
     specs: list[ObserverSpec] = []
     for i, entry in enumerate(data["observers"], 1):
         if not isinstance(entry, dict):

@@ -58,11 +58,18 @@ class Clause:
 # known position, and the rest is plain string work (no backtracking over untrusted text).
 _PREDICATE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _ARGUMENT = re.compile(r"[A-Za-z0-9_]+")
+# The common layout, ``pred`` or ``pred(a,b)`` with no blanks, in one match (a model file
+# holds hundreds of thousands of atoms); anything else takes the general path below.
+_COMPACT = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)(?:\(([A-Za-z0-9_]+(?:,[A-Za-z0-9_]+)*)\))?")
 
 
 def parse_atom(text: str) -> Atom:
     """Parse ``ok(pose)``, ``ok(n, cpu)`` or a bare proposition such as ``false``."""
     stripped = text.strip()
+    compact = _COMPACT.fullmatch(stripped)
+    if compact is not None:
+        args = compact.group(2)
+        return Atom(compact.group(1), tuple(args.split(",")) if args else ())
     match = _PREDICATE.match(stripped)
     if match is None:
         raise ValueError(f"not an atom: {_shown(text)}")

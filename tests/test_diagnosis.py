@@ -267,7 +267,7 @@ def test_observation_file_scans_the_model_once(
     monkeypatch.setattr(theory_module, "known_atoms", counting)
     text = "\n".join(str(a) for a in tedusar.props)
     assert len(parse_observations(text, "obs.txt", tedusar)) == len(tedusar.props)
-    assert len(calls) == 1
+    assert len(calls) <= 1  # none at all: the clause index answers (KnownAtoms)
 
 
 @pytest.mark.parametrize("text", ["", "# only a comment\n"])

@@ -8,14 +8,19 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from rac.commands.common import add_command
+from rac.commands.common import CommandParser, add_command, run_values
 from rac.diagnosis import DiagnosisResult, Literal, Theory, collect, diagnose, load_theory
-from rac.diagnosis.theory import known_atoms, literal_at, parse_observations
+from rac.diagnosis.theory import known_lookup, literal_at, parse_observations
 from rac.loader import read_text
 
 
 class _InOrder(argparse.Action):
-    """Keep --obs and --obs-file in command-line order: later literals win (Algorithm 10)."""
+    """Keep --obs and --obs-file in command-line order: later literals win (Algorithm 10).
+
+    Appends in place (O(1)): copying the list at each use, as argparse's ``append`` does,
+    is quadratic in the number of uses.  A batched run (``--obs-run``, see
+    :class:`~rac.commands.common.CommandParser`) adds each of its literals.
+    """
 
     def __call__(
         self,
@@ -24,9 +29,13 @@ class _InOrder(argparse.Action):
         values: Any,
         option_string: str | None = None,
     ) -> None:
-        sources = list(getattr(namespace, "sources", None) or [])
-        sources.append((self.dest, values))
-        namespace.sources = sources
+        sources = getattr(namespace, "sources", None)
+        if sources is None:  # a fresh list per parse, never the shared default
+            sources = namespace.sources = []
+        if self.dest == "obs_run":
+            sources.extend(("obs", value) for value in run_values(values))
+        else:
+            sources.append((self.dest, values))
 
 
 def card(text: str) -> int:
@@ -52,18 +61,21 @@ def add_observation_options(parser: argparse.ArgumentParser) -> None:
         action=_InOrder,
         help="a file with one literal per line, '#' comments (repeatable)",
     )
-    parser.set_defaults(sources=[])
+    if isinstance(parser, CommandParser):
+        parser.add_argument("--obs-run", action=_InOrder, help=argparse.SUPPRESS)
+        parser.batch("--obs", "--obs-run")
+    parser.set_defaults(sources=None)
 
 
 def observations(args: argparse.Namespace, theory: Theory) -> tuple[Literal, ...]:
     """Θ from --obs and --obs-file in command-line order (contract §6)."""
     literals: list[Literal] = []
-    known = known_atoms(theory)  # once: it is a pass over the whole model
-    for kind, value in args.sources:
+    known = known_lookup(theory)  # once: a look-up in the theory's clause index
+    for kind, value in args.sources or ():
         if kind == "obs":
             literals.append(literal_at(value, theory, None, known))
         else:
-            literals.extend(parse_observations(read_text(value), value, theory))
+            literals.extend(parse_observations(read_text(value), value, theory, known))
     return collect(literals)
 
 
@@ -78,6 +90,7 @@ def register(sub: Any) -> None:
         "  racc diagnose models/tedusar.ram --obs 'on(jaguar)' --obs 'running(jaguar_node)' "
         "--obs 'not ok(pose)'\n"
         "  racc diagnose build/tedusar/model.yaml --obs-file observations.txt --json\n"
+        "  racc diagnose robot.ram --obs 'not ok(pose)' --json --with-good\n"
         "  racc diagnose robot.ram --obs-file obs.txt --max-card 2",
     )
     parser.add_argument("model", metavar="MODEL", help="a .ram, a ram/1 .json or a model.yaml")
@@ -89,16 +102,37 @@ def register(sub: Any) -> None:
         default=None,
         help="search diagnoses of at most K faulty components (default: no bound)",
     )
-    parser.add_argument("--json", action="store_true", help="print JSON (contract §7)")
+    parser.add_argument(
+        "--json",
+        action="store_true",
+        help="print JSON: consistent, conflicts, and the bad components of each diagnosis",
+    )
+    add_with_good_option(parser)
     parser.set_defaults(run=run)
 
 
-def to_json(result: DiagnosisResult) -> dict[str, Any]:
-    """Exactly the shape of contract §7."""
+def add_with_good_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--with-good",
+        action="store_true",
+        help="with --json, also list each diagnosis's good components (all the others)",
+    )
+
+
+def to_json(result: DiagnosisResult, with_good: bool = False) -> dict[str, Any]:
+    """``{"consistent", "conflicts", "diagnoses": [{"bad": [...]}]}``; each diagnosis also has
+    ``"good"`` (every other component, sorted) with ``with_good``.  Without it the output
+    stays small: a large robot has thousands of good components per diagnosis."""
+    diagnoses: list[dict[str, Any]] = []
+    for d in result.diagnoses:
+        entry: dict[str, Any] = {"bad": list(d)}
+        if with_good:
+            entry["good"] = list(result.good(d))
+        diagnoses.append(entry)
     return {
         "consistent": result.consistent,
         "conflicts": [list(c) for c in result.conflicts],
-        "diagnoses": [{"bad": list(d), "good": list(result.good(d))} for d in result.diagnoses],
+        "diagnoses": diagnoses,
     }
 
 
@@ -148,7 +182,7 @@ def run(args: argparse.Namespace) -> int:
     for note in notes(result, args.max_card):
         print(note, file=sys.stderr)
     if args.json:
-        print(json.dumps(to_json(result)))
+        print(json.dumps(to_json(result, args.with_good)))
     else:
         print(table(result, len(theta)))
     return 0

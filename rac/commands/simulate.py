@@ -8,7 +8,7 @@ from typing import Any
 
 from rac.analysis.modes import MODES
 from rac.commands.common import add_command
-from rac.commands.diagnose import card, to_json
+from rac.commands.diagnose import add_with_good_option, card, to_json
 from rac.diagnosis import Simulation, all_single_faults, ambiguity_groups, load_theory, simulate
 
 
@@ -49,6 +49,7 @@ def register(sub: Any) -> None:
         help="how the injected components fail (default: crash)",
     )
     parser.add_argument("--json", action="store_true", help="print JSON")
+    add_with_good_option(parser)
     parser.set_defaults(run=run)
 
 
@@ -69,13 +70,13 @@ def single_report(sim: Simulation) -> str:
     return "\n".join(lines)
 
 
-def single_json(sim: Simulation) -> dict[str, Any]:
+def single_json(sim: Simulation, with_good: bool = False) -> dict[str, Any]:
     return {
         "faults": list(sim.faults),
         "mode": sim.mode,
         "observations": [str(o) for o in sim.observations],
         "detected": sim.detected,
-        **to_json(sim.result),
+        **to_json(sim.result, with_good),
         "found": sim.found,
         "isolated": sim.isolated,
         "bounded": sim.result.bounded,
@@ -140,5 +141,6 @@ def run(args: argparse.Namespace) -> int:
             print(table_report(sims, groups, args.mode))
         return 0
     sim = simulate(theory, args.fault, args.max_card, args.mode)
-    print(json.dumps(single_json(sim), indent=2) if args.json else single_report(sim))
+    text = json.dumps(single_json(sim, args.with_good), indent=2) if args.json else None
+    print(text or single_report(sim))
     return 0

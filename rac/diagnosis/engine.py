@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from rac.diagnosis.theory import Literal, Theory
 from rac.errors import Diagnostic, RacError, did_you_mean
 from rac.logic import FALSE, Atom
+from rac.perf import paused_gc
 
 ASSUMED = -1  # justification of an atom that was assumed, not derived
 Key = tuple[str, tuple[str, ...]]  # an atom as (predicate, args)
@@ -52,63 +53,117 @@ class Full:
     clashes: tuple[tuple[int, ...], ...]  # every contradiction it holds
 
 
+class KnownAtoms:
+    """``rac.diagnosis.theory.known_atoms`` of an index's theory as a look-up, not a set.
+
+    An atom is known when the theory mentions it, or its negation ``not_atom``, and it is
+    neither an assumption nor ``false``.
+    """
+
+    def __init__(self, index: Index) -> None:
+        self.index = index
+
+    def __contains__(self, atom: object) -> bool:
+        if not isinstance(atom, Atom):
+            return False
+        theory, ids, mentioned = self.index.theory, self.index.ids, self.index.mentioned
+        pred, args = atom.predicate, atom.args
+        if pred in (theory.ab, theory.nab) or (pred == FALSE and not args):
+            return False
+        if not pred.startswith(theory.neg_prefix) and ids.get((pred, args), mentioned) < mentioned:
+            return True
+        return ids.get((theory.neg_prefix + pred, args), mentioned) < mentioned
+
+
 class Index:
     """The clause set of a theory as integer arrays, built once and reused for every check."""
 
     def __init__(self, theory: Theory) -> None:
+        with paused_gc():  # hundreds of thousands of small lists and tuples, none cyclic
+            self._build(theory)
+
+    def _build(self, theory: Theory) -> None:
         self.theory = theory
         # Atoms are keyed by (predicate, args): tuple hashing runs in C, Atom's in Python,
-        # which matters at 100,000 atoms.
+        # which matters at 100,000 atoms.  Atom objects are first looked up by identity: a
+        # model read from a file shares one object per atom across its rules.
         self.ids: dict[Key, int] = {}
         self.keys: list[Key] = []
-        heads = [self._intern(c.head.predicate, c.head.args) for c in theory.clauses]
-        bodies = [
-            tuple(dict.fromkeys([self._intern(a.predicate, a.args) for a in c.body]))
-            for c in theory.clauses
-        ]
+        by_object: dict[int, int] = {}
+        intern = self._intern
+
+        def atom_id(atom: Atom) -> int:
+            found = by_object.get(id(atom))
+            if found is None:
+                found = by_object[id(atom)] = intern(atom.predicate, atom.args)
+            return found
+
+        clauses = theory.clauses
+        heads = [atom_id(c.head) for c in clauses]
+        bodies = [[atom_id(a) for a in c.body] for c in clauses]
+        for k, body in enumerate(bodies):
+            if len(body) > 1 and len(set(body)) < len(body):
+                bodies[k] = list(dict.fromkeys(body))  # a repeated body atom counts once
         for atom in theory.props:
-            self._intern(atom.predicate, atom.args)
-        self.nab_id = {c: self._intern(theory.nab, (c,)) for c in theory.components}
-        self.ab_id = {c: self._intern(theory.ab, (c,)) for c in theory.components}
+            atom_id(atom)
+        self.mentioned = len(self.keys)  # atoms below this id occur in the theory itself
+        self.nab_id = {c: intern(theory.nab, (c,)) for c in theory.components}
+        self.ab_id = {c: intern(theory.ab, (c,)) for c in theory.components}
+        # Complements, to a fixpoint (not_not_a -> not_a -> a): each depends on the
+        # predicate only, so it is computed once per predicate, not once per atom.
+        other_of: dict[str, str | None] = {}
+        complement: list[int] = []
+        keys = self.keys
         done = 0
-        while done < len(self.keys):  # so that every complement has an id (to a fixpoint:
-            other = self._complement_key(self.keys[done])  # not_not_a -> not_a -> a)
-            if other is not None:
-                self._intern(*other)
+        while done < len(keys):
+            pred, args = keys[done]
+            if pred not in other_of:
+                other_of[pred] = self._complement_predicate(pred)
+            other = other_of[pred]
+            is_false = pred == FALSE and not args  # false has no complement
+            complement.append(-1 if other is None or is_false else intern(other, args))
             done += 1
+        self.complement = complement
         self.false_id = self.ids.get((FALSE, ()), -1)
-        self.complement = [-1] * len(self.keys)
-        for i, key in enumerate(self.keys):
-            other = self._complement_key(key)
-            if other is not None:
-                self.complement[i] = self.ids[other]
         self.assumption: dict[int, tuple[str, bool]] = {}  # atom -> (component, is AB)
         for comp in theory.components:
             self.assumption[self.nab_id[comp]] = (comp, False)
             self.assumption[self.ab_id[comp]] = (comp, True)
         self.head = heads
         self.body = bodies
-        self.occurs: list[list[int]] = [[] for _ in self.keys]
+        occurs: list[list[int]] = [[] for _ in keys]
         for k, body in enumerate(bodies):
             for a in body:
-                self.occurs[a].append(k)
+                occurs[a].append(k)
+        self.occurs = occurs
         self.facts = [k for k, body in enumerate(bodies) if not body]
-        self.by_head: list[list[int]] = [[] for _ in self.keys]
-        for k, h in enumerate(heads):
-            self.by_head[h].append(k)
+        self._by_head: list[list[int]] | None = None
         self.size = [len(b) for b in bodies]
         self.monotone = self._is_monotone()
         self.all_nab = [self.nab_id[c] for c in theory.components]
         # (predicate, args, positive) of an observation literal -> atom id
         self.literal_ids: dict[tuple[str, tuple[str, ...], bool], int] = {}
         prefix = theory.neg_prefix
-        for i, (pred, args) in enumerate(self.keys):
-            if pred in (theory.ab, theory.nab) or (pred, args) == (FALSE, ()):
+        skip = {theory.ab, theory.nab}
+        for i, (pred, args) in enumerate(keys):
+            if pred in skip or (pred, args) == (FALSE, ()):
                 continue
             if pred.startswith(prefix):
                 self.literal_ids[pred.removeprefix(prefix), args, False] = i
             else:
                 self.literal_ids[pred, args, True] = i
+        self._normal: Full | None = None
+        self.known = KnownAtoms(self)
+
+    @property
+    def by_head(self) -> list[list[int]]:
+        """The clauses deriving each atom (built on first use: only DRed needs it)."""
+        if self._by_head is None:
+            by_head: list[list[int]] = [[] for _ in self.keys]
+            for k, h in enumerate(self.head):
+                by_head[h].append(k)
+            self._by_head = by_head
+        return self._by_head
 
     def _intern(self, predicate: str, args: tuple[str, ...]) -> int:
         key = (predicate, args)
@@ -118,18 +173,15 @@ class Index:
             self.keys.append(key)
         return found
 
-    def _complement_key(self, key: Key) -> Key | None:
-        pred, args = key
+    def _complement_predicate(self, pred: str) -> str | None:
         theory = self.theory
-        if key == (FALSE, ()):
-            return None
         if pred == theory.ab:
-            return theory.nab, args
+            return theory.nab
         if pred == theory.nab:
-            return theory.ab, args
+            return theory.ab
         if pred.startswith(theory.neg_prefix):
-            return pred.removeprefix(theory.neg_prefix), args
-        return theory.neg_prefix + pred, args
+            return pred.removeprefix(theory.neg_prefix)
+        return theory.neg_prefix + pred
 
     def atom_id(self, atom: Atom) -> int | None:
         return self.ids.get((atom.predicate, atom.args))
@@ -140,14 +192,11 @@ class Index:
         Then Reiter's theory applies as is (Theorem 3.1): diagnoses are exactly the minimal
         hitting sets of the minimal conflicts.  Fault-mode rules break this.
         """
-        ab = self.theory.ab
-        nab = self.theory.nab
-        for clause in self.theory.clauses:
-            if clause.head.predicate in (ab, nab):
-                return False
-            if any(a.predicate == ab for a in clause.body):
-                return False
-        return True
+        ab, nab = self.theory.ab, self.theory.nab
+        assumption = {i for i, (pred, _) in enumerate(self.keys) if pred in (ab, nab)}
+        if any(h in assumption for h in self.head):
+            return False
+        return not any(self.occurs[i] for i in assumption if self.keys[i][0] == ab)
 
     def literal_atom(self, literal: Literal) -> int:
         found = self.literal_ids.get((literal.atom.predicate, literal.atom.args, literal.positive))
@@ -164,50 +213,31 @@ class Index:
         true = bytearray(len(self.keys))
         missing = list(self.size)
         seeds = [self.head[k] for k in self.facts]
+        seeds.extend(self._observed(observations))
+        stack: list[int] = []
+        clash = self._seed(true, seeds, {}, stack, stop=False)
+        found = self._propagate(true, missing, stack, {}, stop=False)
+        return Base(true, missing), clash or found
+
+    def _observed(self, observations: Sequence[Literal]) -> list[int]:
         ids = self.literal_ids
+        found = []
         for lit in observations:
             atom = lit.atom
-            found = ids.get((atom.predicate, atom.args, lit.positive))
-            seeds.append(self.literal_atom(lit) if found is None else found)  # raises RAC040
-        occurs, head = self.occurs, self.head
-        stack: list[int] = []
-        for a in seeds:
-            if not true[a]:
-                true[a] = 1
-                stack.append(a)
-        held = list(stack)  # every atom made true, for the clash scan below
-        while stack:
-            a = stack.pop()
-            for k in occurs[a]:
-                missing[k] -= 1
-                if missing[k] == 0 and not true[head[k]]:
-                    true[head[k]] = 1
-                    stack.append(head[k])
-                    held.append(head[k])
-        return Base(true, missing), self._clash(true, held)
+            i = ids.get((atom.predicate, atom.args, lit.positive))
+            found.append(self.literal_atom(lit) if i is None else i)  # raises RAC040
+        return found
 
-    def _clash(self, true: bytearray, held: list[int]) -> tuple[int, ...]:
-        if self.false_id >= 0 and true[self.false_id]:
-            return (self.false_id,)
-        complement = self.complement
-        for a in held:
-            c = complement[a]
-            if c >= 0 and true[c]:
-                return (min(a, c), max(a, c))
-        return ()
-
-    def run(self, base: Base, seeds: Iterable[int], stop: bool = True) -> Run:
-        """Propagate assumption atoms on ``base``; stop at the first contradiction.
-
-        With ``stop=False`` the closure is computed in full and ``clash`` is the first one met.
-        Works on copies of the base arrays: copying is a C-speed memcpy, far cheaper than
-        per-clause dictionary look-ups when the run touches most of the model.
-        """
-        true = bytearray(base.true)
-        missing = base.missing.copy()
-        occurs, head, complement, false_id = self.occurs, self.head, self.complement, self.false_id
-        why: dict[int, int] = {}
-        stack: list[int] = []
+    def _seed(
+        self,
+        true: bytearray,
+        seeds: Iterable[int],
+        why: dict[int, int],
+        stack: list[int],
+        stop: bool,
+    ) -> tuple[int, ...]:
+        """Make ``seeds`` true (pushing the new ones on ``stack``); the first clash met."""
+        complement, false_id = self.complement, self.false_id
         clash: tuple[int, ...] = ()
         for a in seeds:
             if true[a]:
@@ -215,11 +245,23 @@ class Index:
             true[a] = 1
             why[a] = ASSUMED
             c = complement[a]
-            if c >= 0 and true[c] and not clash:
-                clash = (a, c)
+            if not clash and (a == false_id or (c >= 0 and true[c])):
+                clash = (a,) if a == false_id else (a, c)
                 if stop:
-                    return Run(clash, why)
+                    return clash
             stack.append(a)
+        return clash
+
+    def _propagate(
+        self, true: bytearray, missing: list[int], stack: list[int], why: dict[int, int], stop: bool
+    ) -> tuple[int, ...]:
+        """Counter-based unit propagation (LTUR) from the atoms on ``stack``: the one loop.
+
+        Every derived atom is recorded in ``why`` with its clause.  Returns the first
+        contradiction met (() when none), and stops there when ``stop``.
+        """
+        occurs, head, complement, false_id = self.occurs, self.head, self.complement, self.false_id
+        clash: tuple[int, ...] = ()
         while stack:
             a = stack.pop()
             for k in occurs[a]:
@@ -235,30 +277,34 @@ class Index:
                         if not clash:
                             clash = (h,) if h == false_id else (h, c)
                         if stop:
-                            return Run(clash, why)
+                            return clash
                     stack.append(h)
-        return Run(clash, why)
+        return clash
+
+    def run(self, base: Base, seeds: Iterable[int], stop: bool = True) -> Run:
+        """Propagate assumption atoms on ``base``; stop at the first contradiction.
+
+        With ``stop=False`` the closure is computed in full and ``clash`` is the first one met.
+        Works on copies of the base arrays: copying is a C-speed memcpy, far cheaper than
+        per-clause dictionary look-ups when the run touches most of the model.
+        """
+        true = bytearray(base.true)
+        why: dict[int, int] = {}
+        stack: list[int] = []
+        clash = self._seed(true, seeds, why, stack, stop)
+        if clash and stop:
+            return Run(clash, why)
+        found = self._propagate(true, base.missing.copy(), stack, why, stop)
+        return Run(clash or found, why)
 
     def full(self, base: Base) -> Full:
         """Close ``base`` under NAB(c) for every component, recording every contradiction."""
         true = bytearray(base.true)
         missing = base.missing.copy()
-        occurs, head = self.occurs, self.head
         why: dict[int, int] = {}
         stack: list[int] = []
-        for a in self.all_nab:
-            if not true[a]:
-                true[a] = 1
-                why[a] = ASSUMED
-                stack.append(a)
-        while stack:
-            a = stack.pop()
-            for k in occurs[a]:
-                missing[k] -= 1
-                if missing[k] == 0 and not true[head[k]]:
-                    true[head[k]] = 1
-                    why[head[k]] = k
-                    stack.append(head[k])
+        self._seed(true, self.all_nab, why, stack, stop=False)
+        self._propagate(true, missing, stack, why, stop=False)
         complement, false_id = self.complement, self.false_id
         clashes: set[tuple[int, ...]] = set()
         for a in why:
@@ -268,6 +314,51 @@ class Index:
             elif c >= 0 and true[c]:
                 clashes.add((min(a, c), max(a, c)))
         return Full(true, missing, why, tuple(sorted(clashes)))
+
+    def normal(self) -> Full:
+        """The closure of the facts and NAB(COMPS), without observations; computed once.
+
+        Every consistency check of the all-normal assumption starts from it, so that a check
+        costs the observations and what they add, not the whole model.
+        """
+        if self._normal is None:
+            base, clash = self.base(())
+            full = self.full(base)
+            # a clash of the facts alone stays in every closure: keep it with the others
+            clashes = full.clashes + ((clash,) if clash else ())
+            self._normal = Full(full.true, full.missing, full.why, clashes)
+        return self._normal
+
+    def consistent(self, observations: Sequence[Literal]) -> bool:
+        """Is clauses ∪ Θ ∪ NAB(COMPS) consistent?  Incremental on :meth:`normal`."""
+        return self.consistent_ids(self._observed(observations))
+
+    def observed_ids(self, observations: Sequence[Literal]) -> list[int]:
+        """Θ as atom ids (RacError RAC040 for an unknown atom): convert once, check often."""
+        return self._observed(observations)
+
+    def consistent_ids(self, atoms: Sequence[int]) -> bool:
+        """:meth:`consistent` of Θ given as atom ids (:meth:`observed_ids`).
+
+        Only the observations the all-normal closure does not already hold are propagated;
+        finding them is one vectorised look-up, so a check of an expected Θ costs a few
+        array operations however large Θ is.
+        """
+        import numpy as np  # on first use: most commands never check this way
+
+        normal = self.normal()
+        if normal.clashes:
+            return False
+        seeds = np.asarray(atoms, dtype=np.int64)
+        held = np.frombuffer(normal.true, dtype=np.uint8)
+        new = seeds[held[seeds] == 0].tolist() if seeds.size else []
+        if not new:  # everything observed was already predicted
+            return True
+        true = bytearray(normal.true)
+        stack: list[int] = []
+        if self._seed(true, new, {}, stack, stop=True):
+            return False
+        return not self._propagate(true, normal.missing.copy(), stack, {}, stop=True)
 
     def check(self, base: Base, full: Full, bad: frozenset[str], strong: bool) -> Run:
         """Is AB(bad) ∪ NAB(COMPS∖bad) consistent with Θ?  Incremental on ``full``.

@@ -1,20 +1,44 @@
 """Read a model-server ``model.yaml`` (contract §5) into a :class:`Theory`.
 
-The file is composed (not just loaded) so that every problem names its line and column.
+Every problem names its line and column.  Two readers give the same document:
+
+* the layout racc itself writes (top-level ``key: value`` lines and block lists of plain
+  one-line scalars) is read line by line, a few string operations per line;
+* anything else goes through libyaml's event parser (:func:`rac.limits.compose_yaml`: no
+  recursion, depth and size limits, no anchors).
+
+The fast reader accepts a line only when YAML reads it the same way, so a file it does not
+recognise is read by the full parser, never misread.
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import yaml
 
-from rac.diagnosis.theory import Theory, components_of
+from rac.diagnosis.theory import Theory
 from rac.errors import Diagnostic, RacError, Span, did_you_mean
 from rac.limits import MAX_YAML_BYTES, YamlLimit, compose_yaml
 from rac.logic import AB, FALSE, NAB, NEG_PREFIX, Atom, Clause, parse_atom, parse_clause
+from rac.perf import paused_gc
 
 KEYS = ("ab", "nab", "neg_prefix", "props", "rules")
+
+
+@dataclass(frozen=True, slots=True)
+class _Value:
+    """A top-level value: a scalar's text, or a list's items (None for a non-scalar item)."""
+
+    span: Span
+    text: str | None = None  # a scalar
+    items: list[str | None] | None = None  # a list
+    item_span: Callable[[int], Span] | None = None
+
+
+Entries = list[tuple[str, Span, _Value]]  # key, where the key is, value
 
 
 def _span(file: str, node: yaml.Node) -> Span:
@@ -22,57 +46,116 @@ def _span(file: str, node: yaml.Node) -> Span:
     return Span(file, start.line + 1, start.column + 1, end.line + 1, end.column + 1)
 
 
-def _error(file: str, node: yaml.Node | None, message: str, hint: str | None = None) -> Diagnostic:
-    return Diagnostic("RAC006", message, _span(file, node) if node else None, hint=hint)
+def _error(span: Span | None, message: str, hint: str | None = None) -> Diagnostic:
+    return Diagnostic("RAC006", message, span, hint=hint)
 
 
-def _scalar(file: str, node: yaml.Node, what: str, errors: list[Diagnostic]) -> str | None:
-    if isinstance(node, yaml.ScalarNode):
-        return str(node.value)
-    errors.append(_error(file, node, f"{what} must be a string"))
-    return None
+# The fast reader's lines.  A plain scalar made of these characters reads as itself in YAML:
+# no indicator can start it, it holds no ': ', ' #', quote, anchor, tag or flow character,
+# and it ends with no blank.
+_PLAIN = r"[A-Za-z_(][A-Za-z0-9_(),. >-]*(?<! )"
+_KEY_LINE = re.compile(rf"([a-z_]+):(?: ({_PLAIN}))?")
+_ITEM_LINE = re.compile(rf"( *)- ({_PLAIN})")
 
 
-def _items(file: str, node: yaml.Node, key: str, errors: list[Diagnostic]) -> list[yaml.Node]:
-    if isinstance(node, yaml.SequenceNode):
-        return list(node.value)
-    if isinstance(node, yaml.ScalarNode) and node.value in ("", "~", "null"):
-        return []
-    errors.append(_error(file, node, f"'{key}' must be a list of strings"))
-    return []
+def _fast_entries(text: str, file: str) -> Entries | None:
+    """The document as racc writes it, or None when it is laid out any other way."""
+    if not text.isascii() or "\r" in text or "\t" in text:
+        return None
+    entries: Entries = []
+    key_line = _KEY_LINE.fullmatch
+    item_line = _ITEM_LINE.fullmatch
+    items: list[str | None] | None = None
+    lines: list[int] = []
+    indent = -1
+    pending: tuple[str, Span, int] | None = None  # a 'key:' whose list may follow
+
+    def close() -> None:
+        nonlocal pending, items, lines
+        if pending is None:
+            return
+        key, where, number = pending
+        if items is None:  # 'key:' and nothing: YAML's empty scalar
+            column = len(key) + 2
+            entries.append((key, where, _Value(Span(file, number, column, number, column), "")))
+        else:
+            entries.append((key, where, _list_value(file, items, lines, indent)))
+        pending, items, lines = None, None, []
+
+    for number, line in enumerate(text.split("\n"), start=1):
+        stripped = line.lstrip(" ")
+        if not stripped or stripped[0] == "#":
+            continue
+        if line[0] == " " or line[0] == "-":
+            found = item_line(line)
+            if found is None or pending is None:
+                return None
+            width = len(found.group(1))
+            if items is None:
+                if width not in (0, 2):
+                    return None
+                items, indent = [], width
+            elif width != indent:
+                return None
+            items.append(found.group(2))
+            lines.append(number)
+            continue
+        found = key_line(line)
+        if found is None:
+            return None
+        close()
+        key, value = found.group(1), found.group(2)
+        where = Span(file, number, 1, number, 1 + len(key))
+        if value is None:
+            pending = (key, where, number)
+        else:
+            column = len(key) + 3
+            span = Span(file, number, column, number, column + len(value))
+            entries.append((key, where, _Value(span, value)))
+    close()
+    return entries if entries else None
 
 
-def _check_assumption(
-    file: str, node: yaml.Node, atom: Atom, ab: str, nab: str, errors: list[Diagnostic]
-) -> None:
-    if atom.predicate in (ab, nab) and len(atom.args) != 1:
-        errors.append(_error(file, node, f"'{atom}' must name exactly one component"))
+def _list_value(file: str, items: list[str | None], lines: list[int], indent: int) -> _Value:
+    column = indent + 3
+
+    def item_span(i: int) -> Span:
+        text = items[i] or ""
+        return Span(file, lines[i], column, lines[i], column + len(text))
+
+    first = lines[0] if lines else 1
+    return _Value(Span(file, first, indent + 1, lines[-1], column), None, items, item_span)
 
 
-def _name_problems(
-    file: str, values: dict[str, yaml.Node], names: dict[str, str]
-) -> list[Diagnostic]:
-    """ab, nab and neg_prefix are identifiers that cannot be mistaken for one another."""
-    found: list[Diagnostic] = []
-    for key, value in names.items():
-        pattern = r"[A-Za-z_][A-Za-z0-9_]*"
-        if re.fullmatch(pattern, value) is None:
-            found.append(_error(file, values.get(key), f"'{key}' must be an identifier"))
-    ab, nab, neg = names["ab"], names["nab"], names["neg_prefix"]
-    if ab == nab:
-        found.append(_error(file, values.get("nab"), "'ab' and 'nab' must differ"))
-    for key in ("ab", "nab"):
-        if names[key].startswith(neg) or names[key] == FALSE:
-            message = f"'{key}' must not start with the negation prefix '{neg}' nor be 'false'"
-            found.append(_error(file, values.get(key), message))
-    return found
+def _node_span(file: str, nodes: list[yaml.Node]) -> Callable[[int], Span]:
+    return lambda i: _span(file, nodes[i])
 
 
-def parse_model_yaml(text: str, file: str) -> Theory:
-    """The theory of a model-server file; RacError RAC006 with every problem found."""
+def _node_entries(root: yaml.MappingNode, file: str) -> Entries:
+    """The same entries from composed nodes (the full parser's path)."""
+    entries: Entries = []
+    for key_node, node in root.value:
+        value: _Value
+        if isinstance(node, yaml.ScalarNode):
+            value = _Value(_span(file, node), str(node.value))
+        elif isinstance(node, yaml.SequenceNode):
+            nodes = list(node.value)
+            items = [str(n.value) if isinstance(n, yaml.ScalarNode) else None for n in nodes]
+            value = _Value(_span(file, node), None, items, _node_span(file, nodes))
+        else:
+            value = _Value(_span(file, node))
+        entries.append((str(key_node.value), _span(file, key_node), value))
+    return entries
+
+
+def _read_entries(text: str, file: str) -> tuple[Entries, Span]:
+    """The top-level entries, and where the document's mapping starts."""
     if len(text) > MAX_YAML_BYTES:
         message = f"the file is {len(text):,} characters long (at most {MAX_YAML_BYTES:,})"
         raise RacError([Diagnostic("RAC009", message, Span(file, 1, 1, 1, 2))])
+    fast = _fast_entries(text, file)
+    if fast is not None:
+        return fast, fast[0][1]
     try:
         root = compose_yaml(text)
     except YamlLimit as err:
@@ -92,64 +175,189 @@ def parse_model_yaml(text: str, file: str) -> Theory:
         message = "a model file is a mapping with keys " + ", ".join(KEYS)
         if root is None:  # an empty file: still name it
             raise RacError([Diagnostic("RAC006", message, Span(file, 1, 1, 1, 1))], text)
-        raise RacError([_error(file, root, message)], text)
-    errors: list[Diagnostic] = []
-    values: dict[str, yaml.Node] = {}
-    for key_node, value_node in root.value:
-        key = str(key_node.value)
-        if key not in KEYS:
-            errors.append(_error(file, key_node, f"unknown key '{key}'", did_you_mean(key, KEYS)))
-        elif key in values:
-            errors.append(_error(file, key_node, f"key '{key}' given twice"))
+        raise RacError([_error(_span(file, root), message)], text)
+    return _node_entries(root, file), _span(file, root)
+
+
+def _items(value: _Value, key: str, errors: list[Diagnostic]) -> list[tuple[int, str | None]]:
+    """(position, text) of each item of a list value; a null scalar is an empty list."""
+    if value.items is not None:
+        return list(enumerate(value.items))
+    if value.text in ("", "~", "null"):
+        return []
+    errors.append(_error(value.span, f"'{key}' must be a list of strings"))
+    return []
+
+
+def _name_problems(values: dict[str, _Value], names: dict[str, str]) -> list[Diagnostic]:
+    """ab, nab and neg_prefix are identifiers that cannot be mistaken for one another."""
+    found: list[Diagnostic] = []
+
+    def where(key: str) -> Span | None:
+        value = values.get(key)
+        return value.span if value else None
+
+    for key, value in names.items():
+        pattern = r"[A-Za-z_][A-Za-z0-9_]*"
+        if re.fullmatch(pattern, value) is None:
+            found.append(_error(where(key), f"'{key}' must be an identifier"))
+    ab, nab, neg = names["ab"], names["nab"], names["neg_prefix"]
+    if ab == nab:
+        found.append(_error(where("nab"), "'ab' and 'nab' must differ"))
+    for key in ("ab", "nab"):
+        if names[key].startswith(neg) or names[key] == FALSE:
+            message = f"'{key}' must not start with the negation prefix '{neg}' nor be 'false'"
+            found.append(_error(where(key), message))
+    return found
+
+
+class _Atoms:
+    """Atoms parsed once per distinct text: a model names each atom in many rules."""
+
+    def __init__(self) -> None:
+        self.by_text: dict[str, Atom] = {}
+        self.by_key: dict[tuple[str, tuple[str, ...]], Atom] = {}
+
+    def atom(self, text: str) -> Atom:
+        found = self.by_text.get(text)
+        if found is None:
+            stripped = text.strip()
+            found = self.by_text.get(stripped)
+            if found is not None:
+                self.by_text[text] = found
+                return found
+            parsed = parse_atom(stripped)  # ValueError when it is not an atom
+            key = (parsed.predicate, parsed.args)
+            # one object per atom, however it was written: later passes key on identity
+            found = self.by_text[text] = self.by_text[stripped] = self.by_key.setdefault(
+                key, parsed
+            )
+        return found
+
+    def clause(self, text: str) -> Clause:
+        """``parse_clause``, splitting at ', ' first: the layout racc writes."""
+        body_text, arrow, head_text = text.partition("->")
+        if arrow:
+            try:
+                body = tuple([self.atom(p) for p in body_text.split(", ")])
+                return Clause(body, self.atom(head_text))
+            except ValueError:
+                pass  # another layout, or not a rule: the full parser says which
+        parsed = parse_clause(text)
+        return Clause(tuple(self.atom(str(a)) for a in parsed.body), self.atom(str(parsed.head)))
+
+
+def _assumption_problems(
+    atoms: list[Atom], ab: str, nab: str, negated: set[str]
+) -> dict[Atom, list[str]]:
+    """What is wrong with each distinct atom of the rules about the assumptions, if anything."""
+    found: dict[Atom, list[str]] = {}
+    for atom in atoms:
+        if atom.predicate in (ab, nab) and len(atom.args) != 1:
+            found.setdefault(atom, []).append(f"'{atom}' must name exactly one component")
+        if atom.predicate in negated:
+            message = f"'{atom}' negates an assumption; write '{ab}(…)' or '{nab}(…)'"
+            found.setdefault(atom, []).append(message)
+    return found
+
+
+def _where(value: _Value, i: int) -> Span:
+    return value.item_span(i) if value.item_span else value.span
+
+
+def _rules(
+    value: _Value, atoms: _Atoms, names: dict[str, str], errors: list[Diagnostic]
+) -> list[Clause]:
+    """The clauses of ``rules``; every problem in file order."""
+    parsed: list[tuple[int, Clause | str | None]] = []
+    for i, item in _items(value, "rules", errors):
+        if item is None:
+            parsed.append((i, None))
+            continue
+        try:
+            parsed.append((i, atoms.clause(item)))
+        except ValueError as err:
+            parsed.append((i, str(err)))
+    ab, nab = names["ab"], names["nab"]
+    negated = {names["neg_prefix"] + ab, names["neg_prefix"] + nab}
+    # checked once per distinct atom, then reported at every rule using it
+    problems = _assumption_problems(list(atoms.by_key.values()), ab, nab, negated)
+    clauses: list[Clause] = []
+    for i, outcome in parsed:
+        if outcome is None:
+            errors.append(_error(_where(value, i), "a rule must be a string"))
+        elif isinstance(outcome, str):
+            errors.append(_error(_where(value, i), outcome, "write a rule as 'A, B -> C'"))
         else:
-            values[key] = value_node
+            if problems:
+                for atom in (*outcome.body, outcome.head):
+                    for message in problems.get(atom, ()):
+                        errors.append(_error(_where(value, i), message))
+            if not outcome.body and outcome.head == Atom(FALSE):
+                message = "'-> false' makes every observation inconsistent"
+                errors.append(_error(_where(value, i), message))
+            clauses.append(outcome)
+    return clauses
+
+
+def parse_model_yaml(text: str, file: str) -> Theory:
+    """The theory of a model-server file; RacError RAC006 with every problem found."""
+    with paused_gc():  # a hundred thousand atoms and clauses, none cyclic (rac.perf)
+        return _parse(text, file)
+
+
+def _parse(text: str, file: str) -> Theory:
+    entries, root = _read_entries(text, file)
+    errors: list[Diagnostic] = []
+    values: dict[str, _Value] = {}
+    for key, where, value in entries:
+        if key not in KEYS:
+            errors.append(_error(where, f"unknown key '{key}'", did_you_mean(key, KEYS)))
+        elif key in values:
+            errors.append(_error(where, f"key '{key}' given twice"))
+        else:
+            values[key] = value
     names = {"ab": AB, "nab": NAB, "neg_prefix": NEG_PREFIX}
     for key in names:
         if key in values:
-            value = _scalar(file, values[key], f"'{key}'", errors)
-            if value is not None and value.strip():
-                names[key] = value.strip()
-            elif value is not None:
-                errors.append(_error(file, values[key], f"'{key}' must not be empty"))
+            scalar = values[key].text
+            if scalar is None:
+                errors.append(_error(values[key].span, f"'{key}' must be a string"))
+            elif scalar.strip():
+                names[key] = scalar.strip()
+            else:
+                errors.append(_error(values[key].span, f"'{key}' must not be empty"))
     ab, nab = names["ab"], names["nab"]
-    errors.extend(_name_problems(file, values, names))
+    errors.extend(_name_problems(values, names))
     if "rules" not in values:
-        errors.append(_error(file, root, "missing key 'rules'"))
+        errors.append(_error(root, "missing key 'rules'"))
+    # The rules are read first (so that their atoms are known apart from the props'), but
+    # the props' problems are reported first, in file order.
+    atoms = _Atoms()
+    rule_errors: list[Diagnostic] = []
+    clauses = _rules(values["rules"], atoms, names, rule_errors) if "rules" in values else []
+    in_rules = list(atoms.by_key.values())
     props: list[Atom] = []
-    for item in _items(file, values["props"], "props", errors) if "props" in values else []:
-        text_value = _scalar(file, item, "a prop", errors)
-        if text_value is None:
-            continue
-        try:
-            props.append(parse_atom(text_value))
-        except ValueError:
-            errors.append(_error(file, item, f"not an atom: {text_value!r}"))
-    clauses: list[Clause] = []
-    negated_assumptions = {names["neg_prefix"] + ab, names["neg_prefix"] + nab}
-    for item in _items(file, values["rules"], "rules", errors) if "rules" in values else []:
-        text_value = _scalar(file, item, "a rule", errors)
-        if text_value is None:
-            continue
-        try:
-            clause = parse_clause(text_value)
-        except ValueError as err:
-            errors.append(_error(file, item, str(err), "write a rule as 'A, B -> C'"))
-            continue
-        for atom in (*clause.body, clause.head):
-            _check_assumption(file, item, atom, ab, nab, errors)
-            if atom.predicate in negated_assumptions:
-                message = f"'{atom}' negates an assumption; write '{ab}(…)' or '{nab}(…)'"
-                errors.append(_error(file, item, message))
-        if clause.head == Atom(FALSE) and not clause.body:
-            errors.append(_error(file, item, "'-> false' makes every observation inconsistent"))
-        clauses.append(clause)
+    if "props" in values:
+        value = values["props"]
+        for i, item in _items(value, "props", errors):
+            if item is None:
+                errors.append(_error(_where(value, i), "a prop must be a string"))
+                continue
+            try:
+                props.append(atoms.atom(item))
+            except ValueError:
+                errors.append(_error(_where(value, i), f"not an atom: {item!r}"))
+    errors.extend(rule_errors)
     if errors:
         raise RacError(errors, text)
     unique = tuple(dict.fromkeys(clauses))
+    # COMPS from the distinct atoms of the rules (rac.diagnosis.theory.components_of)
+    comps = {a.args[0] for a in in_rules if a.predicate in (ab, nab) and len(a.args) == 1}
     return Theory(
         clauses=unique,
         props=tuple(dict.fromkeys(props)),
-        components=components_of(unique, ab, nab),
+        components=tuple(sorted(comps)),
         ab=ab,
         nab=nab,
         neg_prefix=names["neg_prefix"],

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from rac.diagnosis.engine import Index
 from rac.diagnosis.search import HittingSetDag, minimal_sets, transversals
 from rac.diagnosis.theory import Literal, Theory
+from rac.perf import paused_gc
 
 
 @dataclass(frozen=True, slots=True)
@@ -47,6 +48,8 @@ def _ordered(sets: Sequence[frozenset[str]]) -> tuple[tuple[str, ...], ...]:
 def is_consistent(theory: Theory, observations: Sequence[Literal], bad: Sequence[str] = ()) -> bool:
     """Is clauses ∪ Θ ∪ AB(bad) ∪ NAB(COMPS∖bad) consistent?  One linear propagation."""
     index = compile_theory(theory)
+    if not bad:
+        return index.consistent(observations)
     base, clash = index.base(observations)
     if clash:
         return False
@@ -57,6 +60,13 @@ def diagnose(
     theory: Theory, observations: Sequence[Literal], max_card: int | None = None
 ) -> DiagnosisResult:
     """Reiter's minimal diagnoses (Definition 3.32) of Θ, searched up to ``max_card`` faults."""
+    with paused_gc():  # closures of the whole model: large, short-lived and acyclic
+        return _diagnose(theory, observations, max_card)
+
+
+def _diagnose(
+    theory: Theory, observations: Sequence[Literal], max_card: int | None
+) -> DiagnosisResult:
     index = compile_theory(theory)
     base, clash = index.base(observations)
     comps = theory.components

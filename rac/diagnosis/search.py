@@ -14,10 +14,10 @@ path minimal, since each smaller diagnosis was found on an earlier level.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
-from rac.diagnosis.engine import Base, Full, Index
+from rac.diagnosis.engine import ASSUMED, Base, Full, Index
 
 Conflict = tuple[frozenset[str], frozenset[str]]  # (components assumed NAB, assumed AB)
 
@@ -54,12 +54,33 @@ class HittingSetDag:
         self.conflicts.append((nab, ab))
         return nab, ab
 
+    def necessary(self) -> frozenset[str]:
+        """The components c for which NAB(c) alone contradicts Θ: in every diagnosis.
+
+        Read off the all-normal closure: a contradiction derived from a single assumption
+        NAB(c) is the minimal conflict {c}.  When every component is down (a power-up),
+        this finds all of them in one pass instead of one search level per component.
+        """
+        index, why = self.index, self.full.why
+        found: set[str] = set()
+        for clash in self.full.clashes:
+            assumed = _assumptions(why, index.body, clash, limit=2)
+            if len(assumed) == 1:
+                found.add(index.assumption[assumed.pop()][0])
+        return frozenset(found)
+
     def run(self, max_card: int | None) -> Search:
         diagnoses: list[frozenset[str]] = []
-        level: set[frozenset[str]] = {frozenset()}
-        card = 0
+        necessary = self.necessary()
+        singletons = [(frozenset([c]), frozenset[str]()) for c in sorted(necessary)]
+        # every node below contains them, so they never label one: not kept for reuse
+        level: set[frozenset[str]] = {necessary}
+        card = len(necessary)
         cut: set[frozenset[str]] = set()
         while level:
+            if max_card is not None and card > max_card:
+                cut = level
+                break
             children: set[frozenset[str]] = set()
             for delta in sorted(level, key=sorted):
                 if any(d <= delta for d in diagnoses):
@@ -71,21 +92,49 @@ class HittingSetDag:
                 for comp in label[0]:
                     children.add(delta | {comp})
             card += 1
-            if max_card is not None and card > max_card:
-                cut = children
-                break
             level = children
         bounded = any(not any(d <= child for d in diagnoses) for child in cut)
-        return Search(tuple(diagnoses), tuple(self.conflicts), bounded)
+        return Search(tuple(diagnoses), (*singletons, *self.conflicts), bounded)
+
+
+def _assumptions(
+    why: Mapping[int, int], body: Sequence[Sequence[int]], clash: tuple[int, ...], limit: int
+) -> set[int]:
+    """The assumption atoms ``clash`` was derived from, traced until ``limit`` are found."""
+    found: set[int] = set()
+    seen: set[int] = set()
+    stack = list(clash)
+    while stack and len(found) < limit:
+        a = stack.pop()
+        if a in seen:
+            continue
+        seen.add(a)
+        k = why.get(a)
+        if k is None:  # true in the base: follows from Θ alone
+            continue
+        if k == ASSUMED:
+            found.add(a)
+        else:
+            stack.extend(body[k])
+    return found
 
 
 def minimal_sets(sets: Sequence[frozenset[str]]) -> list[frozenset[str]]:
     """The subset-minimal members, without duplicates."""
     unique = sorted(set(sets), key=lambda s: (len(s), sorted(s)))
+    if unique and not unique[0]:
+        return unique[:1]  # the empty set is inside every other
     kept: list[frozenset[str]] = []
+    singles: set[str] = set()  # the kept singletons' members: one look-up, not a scan
+    larger: list[frozenset[str]] = []
     for s in unique:
-        if not any(k <= s for k in kept):
-            kept.append(s)
+        if not s.isdisjoint(singles) or any(k <= s for k in larger):
+            continue
+        kept.append(s)
+        if len(s) == 1:
+            singles |= s
+        else:
+            larger.append(s)
     return kept
 
 

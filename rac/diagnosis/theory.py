@@ -8,14 +8,17 @@ compiled RBM of a ``.ram``/``.json`` model, or the rules of a model-server ``mod
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable
+from collections.abc import Container, Iterable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from rac.errors import Diagnostic, RacError, Span, did_you_mean
-from rac.ir import Model
-from rac.loader import load_model, read_text
+from rac.loader import read_text
 from rac.logic import AB, FALSE, NAB, NEG_PREFIX, Atom, Clause, parse_atom
-from rac.pipeline import compile_model
+from rac.perf import paused_gc
+
+if TYPE_CHECKING:  # the compiler loads only for .ram/.json models
+    from rac.ir import Model
 
 
 @dataclass(frozen=True, slots=True)
@@ -71,6 +74,9 @@ def load_theory(path: str) -> Theory:
         from rac.diagnosis.model_yaml import parse_model_yaml  # it imports Theory from here
 
         return parse_model_yaml(read_text(path), path)
+    from rac.loader import load_model
+    from rac.pipeline import compile_model
+
     compiled = compile_model(load_model(path))
     return Theory(
         clauses=compiled.rbm,
@@ -106,16 +112,24 @@ def parse_literal(text: str, theory: Theory) -> Literal:
     return literal_at(text, theory, None)
 
 
+def known_lookup(theory: Theory) -> Container[Atom]:
+    """``known_atoms(theory)`` as a look-up in the theory's clause index (built once per
+    theory and shared with the engine), without building a set of every atom."""
+    from rac.diagnosis.result import compile_theory  # it imports this module
+
+    return compile_theory(theory).known
+
+
 def literal_at(
     text: str,
     theory: Theory,
     where: tuple[str, int, int] | None,
-    known: frozenset[Atom] | None = None,
+    known: Container[Atom] | None = None,
 ) -> Literal:
     """:func:`parse_literal`, with ``(file, line, column)`` for the diagnostic span.
 
-    ``known`` is :func:`known_atoms` of ``theory``, when the caller has it: computing it costs
-    a pass over the whole model, so a file of literals computes it once, not once per line.
+    ``known`` is :func:`known_atoms` of ``theory`` (or :func:`known_lookup`), when the caller
+    has it: a file of literals computes it once, not once per line.
     """
     span = None
     if where is not None:
@@ -154,7 +168,7 @@ def literal_at(
     if atom.predicate.startswith(theory.neg_prefix) and stripped in known:
         atom, positive = stripped, not positive
     if atom not in known:
-        names = [str(a) for a in known]
+        names = [str(a) for a in (known if isinstance(known, frozenset) else known_atoms(theory))]
         hint = did_you_mean(str(atom), names)
         if hint is None and theory.props:
             shown = ", ".join(str(a) for a in theory.props[:5])
@@ -174,15 +188,42 @@ def collect(literals: Iterable[Literal]) -> tuple[Literal, ...]:
     return tuple(held.values())
 
 
-def parse_observations(text: str, file: str, theory: Theory) -> tuple[Literal, ...]:
+# ``ok(x)``, ``not ok(x)`` or ``not_ok(x,y)`` alone on a line: the layout of a generated file.
+_PLAIN_LITERAL = re.compile(
+    r" *(not +)?([A-Za-z_][A-Za-z0-9_]*)(?:\(([A-Za-z0-9_]+(?:,[A-Za-z0-9_]+)*)\))? *"
+)
+
+
+def parse_observations(
+    text: str, file: str, theory: Theory, known: Container[Atom] | None = None
+) -> tuple[Literal, ...]:
     """An observation file: one literal per line, ``#`` starts a comment, blank lines skipped.
 
     Every bad line is reported (RAC040/RAC041) with ``file:line:column``.
     """
+    with paused_gc():  # tens of thousands of literals, none cyclic (rac.perf)
+        return _parse_observations(text, file, theory, known)
+
+
+def _parse_observations(
+    text: str, file: str, theory: Theory, known: Container[Atom] | None
+) -> tuple[Literal, ...]:
     literals: list[Literal] = []
     errors: list[Diagnostic] = []
-    known = known_atoms(theory)
+    if known is None:
+        known = known_lookup(theory)
+    plain = _PLAIN_LITERAL.fullmatch
+    prefix, assumptions = theory.neg_prefix, (theory.ab, theory.nab)
     for number, line in enumerate(text.splitlines(), start=1):
+        found = plain(line)
+        if found is not None:  # the common case, read in one match; the rest as below
+            negation, pred, args = found.groups()
+            atom = Atom(pred, tuple(args.split(",")) if args else ())
+            if pred.startswith(prefix) or pred in assumptions or atom not in known:
+                found = None  # the general path flips the prefix or says what is wrong
+            else:
+                literals.append(Literal(atom, negation is None, prefix))
+                continue
         content = line.split("#", 1)[0]
         if not content.strip():
             continue

@@ -20,6 +20,7 @@ from rac.repair.errors import NoRepairPlan
 from rac.repair.planner import DEFAULT_TIMEOUT_S, PLANNER, Step, run_planner
 from rac.repair.problem import RepairProblem, make_problem, render_problem
 from rac.repair.simulate import InapplicableStep, State, check_plan, initial_state
+from rac.repair.split import SPLIT_ABOVE, plan_in_parts
 from rac.repair.system import RepairSystem, system_from_clauses, system_from_model
 from rac.targets.pddl_domain import render_repair_domain
 
@@ -92,7 +93,9 @@ def prepare(
             "or the model",
         )
     system = repair_system(theory)
-    repairable = lambda c: not system.unrepairable((c,))  # noqa: E731
+    names = system.names()
+    fixable = set(names) - set(system.unrepairable(names))  # once, not once per component
+    repairable = lambda c: c in fixable  # noqa: E731
     bad = () if result.consistent else choose_bad(result.diagnoses, strategy, repairable)
     problem = make_problem(robot, system, observations, bad, theory.neg_prefix)
     return Prepared(
@@ -120,7 +123,10 @@ def solve(prepared: Prepared, timeout_s: float = DEFAULT_TIMEOUT_S) -> RepairRes
             hint="repair it by hand, or declare it switchable (with its board channel) in the "
             "model",
         )
-    run = run_planner(prepared.domain_text, prepared.problem_text, timeout_s)
+    if len(problem.system.components) > SPLIT_ABOVE:  # in independent parts (rac.repair.split)
+        run = plan_in_parts(prepared.domain_text, problem, timeout_s)
+    else:
+        run = run_planner(prepared.domain_text, prepared.problem_text, timeout_s)
     names = problem.component_of()
     plan = tuple((step[0], *(names.get(a, a) for a in step[1:])) for step in run.plan)
     try:

@@ -7,7 +7,7 @@ scenario`` prints the state this computes after the plan.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 from rac.repair.planner import Step
 from rac.repair.problem import RepairProblem
@@ -58,44 +58,60 @@ def initial_state(problem: RepairProblem) -> State:
     return State(frozenset(problem.running), frozenset(problem.on), frozenset(problem.bad))
 
 
-def _apply(index: _Index, state: State, step: Step) -> State:
+class _Mutable:
+    """A state being changed step by step: sets changed in place, so a plan of n steps on
+    n components costs O(n), not O(n²) as new frozensets per step did."""
+
+    def __init__(self, state: State) -> None:
+        self.running, self.on, self.bad = set(state.running), set(state.on), set(state.bad)
+
+    def frozen(self) -> State:
+        return State(frozenset(self.running), frozenset(self.on), frozenset(self.bad))
+
+
+def _apply(index: _Index, state: _Mutable, step: Step) -> None:
     action = step[0] if step else ""
     if action == "stop_node":
         n = index.target(step, Kind.NODE)
         if n not in state.bad or n not in state.running:
             raise InapplicableStep(f"stop_node({n}) needs {n} bad and running")
-        return replace(state, running=state.running - {n})
-    if action == "start_node":
+        state.running.discard(n)
+    elif action == "start_node":
         n = index.target(step, Kind.NODE)
         if n in state.running or not index.devices.get(n, frozenset()) <= state.on:
             raise InapplicableStep(f"start_node({n}) needs {n} stopped and its devices on")
-        return replace(state, running=state.running | {n}, bad=state.bad - {n})
-    if action == "shutdown":
+        state.running.add(n)
+        state.bad.discard(n)
+    elif action == "shutdown":
         d = index.target(step, Kind.DEVICE)
         if d not in state.bad or d not in state.on:
             raise InapplicableStep(f"shutdown({d}) needs {d} bad and on")
-        drivers = index.drivers.get(d, frozenset())
-        return replace(state, on=state.on - {d}, bad=state.bad | drivers)
-    if action == "power_up":
+        state.on.discard(d)
+        state.bad |= index.drivers.get(d, frozenset())
+    elif action == "power_up":
         d = index.target(step, Kind.DEVICE)
         if d in state.on:
             raise InapplicableStep(f"power_up({d}) needs {d} off")
-        drivers = index.drivers.get(d, frozenset())
-        return replace(state, on=state.on | {d}, bad=(state.bad - {d}) | drivers)
-    raise InapplicableStep(f"unknown repair action: {action or step}")
+        state.on.add(d)
+        state.bad.discard(d)
+        state.bad |= index.drivers.get(d, frozenset())
+    else:
+        raise InapplicableStep(f"unknown repair action: {action or step}")
 
 
 def apply_step(system: RepairSystem, state: State, step: Step) -> State:
     """The successor state; raises InapplicableStep when a precondition fails."""
-    return _apply(_Index.of(system), state, step)
+    changing = _Mutable(state)
+    _apply(_Index.of(system), changing, step)
+    return changing.frozen()
 
 
 def simulate(problem: RepairProblem, plan: tuple[Step, ...]) -> State:
     index = _Index.of(problem.system)
-    state = initial_state(problem)
+    state = _Mutable(initial_state(problem))
     for step in plan:
-        state = _apply(index, state, step)
-    return state
+        _apply(index, state, step)
+    return state.frozen()
 
 
 def check_plan(problem: RepairProblem, plan: tuple[Step, ...]) -> State:
