@@ -5,11 +5,18 @@ master's lookupNode, then the node's getPid) and returns its pid, -1 for a node 
 but runs on another machine, or None when the node is not there.  Once a local pid is known,
 liveness and properties come from psutil without asking the middleware again; a node whose
 process has gone is resolved afresh (a restarted node has a new pid).
+
+ROS 2 has no getPid: a node's process is found in the process table by the ``__node:=NAME``
+remapping on its command line (:func:`node_processes`), which ``ros2 launch``, ``ros2 run
+... --ros-args -r __node:=NAME``, ``racc demo`` and ``racc repairer`` all put there.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+import os
+import signal
+import time
+from collections.abc import Callable, Iterable, Sequence
 
 import psutil
 
@@ -93,3 +100,76 @@ class ProcessProbe:
             except psutil.Error:
                 self._procs.pop(node, None)
         return out
+
+
+# -- processes by their ROS 2 command line -------------------------------------------------
+
+
+def _matches(cmdline: Sequence[str], base: str, ns: str) -> bool:
+    if f"__node:={base}" not in cmdline:
+        return False
+    wanted = "/" + ns.strip("/")
+    spaces = [a.partition(":=")[2] for a in cmdline if a.startswith("__ns:=")]
+    return (spaces[-1] if spaces else "/").rstrip("/") == wanted.rstrip("/")
+
+
+def node_processes(node: str) -> list[psutil.Process]:
+    """Live processes whose command line remaps the node name to ``node`` ("ns/name" or
+    "name"), oldest first."""
+    ns, _, base = node.strip("/").rpartition("/")
+    found = []
+    for proc in psutil.process_iter(["cmdline", "status", "create_time"]):
+        info = proc.info
+        if info["status"] == psutil.STATUS_ZOMBIE or not info["cmdline"]:
+            continue
+        if _matches(info["cmdline"], base, ns):
+            found.append(proc)
+    return sorted(found, key=lambda p: (p.info["create_time"], p.pid))
+
+
+def _ancestors(proc: psutil.Process) -> set[int]:
+    try:
+        return {p.pid for p in proc.parents()}
+    except psutil.Error:
+        return set()
+
+
+def innermost(procs: Sequence[psutil.Process]) -> psutil.Process | None:
+    """The match no other match descends from (the newest of several).  ``ros2 run``, a
+    shell or a launch prefix carries the same arguments as the process it starts; the
+    innermost one is the node itself (for ``racc demo``: its driver-sized body)."""
+    inner = [p for p in procs if not any(p.pid in _ancestors(q) for q in procs if q is not p)]
+    return inner[-1] if inner else None
+
+
+def outermost(procs: Sequence[psutil.Process]) -> list[psutil.Process]:
+    """The matches no other match started: what to signal to stop the node."""
+    pids = {p.pid for p in procs}
+    return [p for p in procs if not (_ancestors(p) & (pids - {p.pid}))]
+
+
+def alive(pid: int) -> bool:
+    try:
+        return bool(psutil.Process(pid).status() != psutil.STATUS_ZOMBIE)
+    except psutil.Error:
+        return False
+
+
+def terminate(pid: int, signals: Sequence[int | None], grace_s: float = 1.5) -> None:
+    """Each signal in turn (None: only wait) until the process is gone, ``grace_s`` apart."""
+    for sig in signals:
+        if not alive(pid):
+            return
+        if sig is not None:
+            try:
+                os.kill(pid, sig)
+            except OSError:
+                return
+        deadline = time.time() + grace_s
+        while time.time() < deadline:
+            if not alive(pid):
+                return
+            time.sleep(0.05)
+
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGKILL)
