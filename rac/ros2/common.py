@@ -89,8 +89,14 @@ class Session:
         return str(self.node.get_fully_qualified_name()).lstrip("/")
 
     def log(self, level: int, text: str) -> None:
+        # rclpy's logger ties a severity to each call site: one line per level.
         logger = self.node.get_logger()
-        (logger.error if level >= 2 else logger.warning if level == 1 else logger.info)(text)
+        if level >= 2:
+            logger.error(text)
+        elif level == 1:
+            logger.warning(text)
+        else:
+            logger.info(text)
 
     def close(self) -> None:
         self.executor.shutdown(timeout_sec=1.0)
