@@ -99,7 +99,11 @@ class Session:
             logger.info(text)
 
     def close(self) -> None:
+        # The spin thread must end before the process does (else the C++ side aborts).
+        if self.context.ok():
+            self.context.try_shutdown()
         self.executor.shutdown(timeout_sec=1.0)
+        self._thread.join(2.0)
         self.node.destroy_node()
         if self.context.ok():
             self.context.try_shutdown()
