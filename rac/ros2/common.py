@@ -7,7 +7,6 @@ the engines of :mod:`rac.runtime`.
 
 from __future__ import annotations
 
-import contextlib
 import importlib
 import threading
 from collections.abc import Callable, Iterable, Sequence
@@ -76,9 +75,12 @@ class Session:
         self._thread.start()
 
     def _spin(self) -> None:
-        # An exception here means the context shut down (Ctrl-C): the main loop sees ``ok``.
-        with contextlib.suppress(Exception):
+        try:
             self.executor.spin()
+        except Exception as err:  # after Ctrl-C: the context is down, the loop sees ``ok``
+            if self.context.ok():
+                self.node.get_logger().error(f"racc: a callback failed: {err!r}")
+                self.context.try_shutdown()
 
     @property
     def ok(self) -> bool:

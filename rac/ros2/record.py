@@ -5,6 +5,7 @@ computation graph (§9.1.1)."""
 from __future__ import annotations
 
 import os
+import queue
 import threading
 import time
 from pathlib import Path
@@ -41,6 +42,12 @@ def run_record(
     subs: dict[str, Any] = {}
     skipped: set[str] = set()
     count = [0]
+    pending: queue.Queue[tuple[Any, int, bytes]] = queue.Queue()
+
+    def drain() -> None:
+        while not pending.empty():
+            writer.write(*pending.get_nowait())
+            count[0] += 1
 
     def subscribe(topic: str, ros_type: str) -> None:
         cls = message_class(ros_type)
@@ -53,10 +60,8 @@ def run_record(
             conn = conns[topic] = writer.add_connection(topic, ros_type, typestore=store)
 
         def on_message(raw: bytes) -> None:
-            stamp = time.time_ns()
-            with lock:
-                writer.write(conn, stamp, raw)
-                count[0] += 1
+            # The writer's sqlite3 connection belongs to the main thread: queue, write there.
+            pending.put((conn, time.time_ns(), raw))
 
         subs[topic] = node.create_subscription(cls, topic, on_message, sensor_qos(200), raw=True)
 
@@ -81,14 +86,15 @@ def run_record(
                 names = [n for n in graph_nodes(session) if robot_node("/" + n)]
                 rows.extend(sampler.rows(now, names))
                 next_sample = now + 1.0 / PROPERTY_HZ
+            drain()
             time.sleep(0.05)
         publishers, subscribers = _graph(node)
     finally:
         for sub in subs.values():
             node.destroy_subscription(sub)
         time.sleep(0.1)
-        with lock:
-            writer.close()
+        drain()
+        writer.close()
         session.close()
     csv.write_text("\n".join(rows) + "\n", encoding="utf-8")
     graph.write_text(graph_yaml(publishers, subscribers, ignore=[me]), encoding="utf-8")

@@ -35,16 +35,43 @@ ATTRIBUTES = {  # tag -> (required, optional)
     "let": ({"name", "value"}, set()),
     "node": (
         {"pkg", "exec"},
-        {"name", "namespace", "ros_namespace", "exec_name", "args", "ros_args", "output",
-         "respawn", "respawn_delay", "launch-prefix", "if", "unless", "emulate_tty"},
-    ),  # fmt: skip
+        {
+            "name",
+            "namespace",
+            "ros_namespace",
+            "exec_name",
+            "args",
+            "ros_args",
+            "output",
+            "respawn",
+            "respawn_delay",
+            "launch-prefix",
+            "if",
+            "unless",
+            "emulate_tty",
+        },
+    ),
     "param": (set(), {"name", "value", "sep", "from"}),
     "remap": ({"from", "to"}, set()),
     "env": ({"name", "value"}, set()),
 }
 NODE_CHILDREN = {"param", "remap", "env"}
-SUBSTITUTIONS = {"var", "dirname", "env", "optenv", "find-pkg-share", "find-pkg-prefix",
-                 "find-exec", "anon", "eval", "command", "filename", "not", "and", "or"}  # fmt: skip
+SUBSTITUTIONS = {
+    "var",
+    "dirname",
+    "env",
+    "optenv",
+    "find-pkg-share",
+    "find-pkg-prefix",
+    "find-exec",
+    "anon",
+    "eval",
+    "command",
+    "filename",
+    "not",
+    "and",
+    "or",
+}
 
 
 def problems(text: str) -> list[str]:
