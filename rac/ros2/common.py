@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import importlib
 import threading
+import time
 from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
 from rac.errors import Diagnostic, RacError
-from rac.runtime.procs import REMOTE, innermost, node_processes
+from rac.runtime.procs import REMOTE, innermost, node_processes, process_table
 from rac.runtime.status import Row
 
 HINT = (
@@ -199,12 +200,18 @@ class PidResolver:
     not running until a new process with its name appears.
     """
 
-    def __init__(self, graph: Callable[[], set[str]]) -> None:
+    def __init__(self, graph: Callable[[], set[str]], table_s: float = 0.25) -> None:
         self.graph = graph
         self.local: set[str] = set()
+        self.table_s = table_s  # one scan of the process table serves every node
+        self._table: list[Any] = []
+        self._scanned = float("-inf")
 
     def __call__(self, node: str) -> int | None:
-        proc = innermost(node_processes(node))
+        now = time.monotonic()
+        if now - self._scanned >= self.table_s:
+            self._table, self._scanned = process_table(), now
+        proc = innermost(node_processes(node, self._table))
         if proc is not None:
             self.local.add(node)
             return int(proc.pid)

@@ -82,7 +82,8 @@ def run_observe(
         node.create_subscription(
             DiagnosticArray, BOARD_TOPIC, lambda a: host.channel_rows(from_array(a)), sensor_qos()
         )
-    probe = ProcessProbe(bank.nodes, PidResolver(lambda: graph_nodes(session)), bank.properties)
+    resolver = PidResolver(lambda: graph_nodes(session))
+    probe = ProcessProbe(bank.nodes, resolver, bank.properties, recheck_s=1.0)
     session.log(
         0,
         f"racc observe: {len(specs)} observers, {len(wanted)} topics, {len(probe.nodes)} nodes",

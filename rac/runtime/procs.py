@@ -32,11 +32,16 @@ class ProcessProbe:
         resolve: Callable[[str], int | None],
         properties: Iterable[tuple[str, str]] = (),
         resolve_every_s: float = 0.5,
+        recheck_s: float | None = None,
     ) -> None:
         self.nodes = tuple(sorted(set(nodes) | {n for n, _ in properties}))
         self.properties = frozenset(properties)
         self.resolve = resolve
         self.resolve_every_s = resolve_every_s
+        # ROS 2: a node's process is found by its command line, and a starting node's
+        # process matches before its real one does (a wrapper, a demo node's body): a live
+        # process is resolved again every ``recheck_s`` and replaced when another answers.
+        self.recheck_s = recheck_s
         self._procs: dict[str, psutil.Process] = {}
         self._asked: dict[str, float] = {}  # when the middleware was last asked
         self._alive: dict[str, bool] = {}
@@ -74,11 +79,29 @@ class ProcessProbe:
                 return False
         return True
 
+    def _recheck(self, node: str, proc: psutil.Process, t: float) -> psutil.Process:
+        assert self.recheck_s is not None
+        if t - self._asked.get(node, float("-inf")) < self.recheck_s:
+            return proc
+        self._asked[node] = t
+        pid = self.resolve(node)
+        if pid is None or pid == REMOTE or pid == proc.pid:
+            return proc
+        try:
+            fresh = psutil.Process(pid)
+            fresh.cpu_percent(None)
+        except psutil.Error:
+            return proc
+        self._procs[node] = fresh
+        return fresh
+
     def sample(self, t: float, with_properties: bool = True) -> list[Event]:
         """A liveness sample of every node that can be judged now, and its properties."""
         out: list[Event] = []
         for node in self.nodes:
             proc = self._local(node)
+            if proc is not None and self.recheck_s is not None:
+                proc = self._recheck(node, proc, t)
             if proc is not None:
                 running: bool | None = True
             else:
@@ -113,18 +136,29 @@ def _matches(cmdline: Sequence[str], base: str, ns: str) -> bool:
     return (spaces[-1] if spaces else "/").rstrip("/") == wanted.rstrip("/")
 
 
-def node_processes(node: str) -> list[psutil.Process]:
+def node_processes(
+    node: str, table: Sequence[psutil.Process] | None = None
+) -> list[psutil.Process]:
     """Live processes whose command line remaps the node name to ``node`` ("ns/name" or
-    "name"), oldest first."""
+    "name"), oldest first; ``table``: a :func:`process_table` to search."""
     ns, _, base = node.strip("/").rpartition("/")
     found = []
+    for proc in process_table() if table is None else table:
+        if _matches(proc.info["cmdline"], base, ns):
+            found.append(proc)
+    return sorted(found, key=lambda p: (p.info["create_time"], p.pid))
+
+
+def process_table() -> list[psutil.Process]:
+    """Live processes that may be ROS 2 nodes (their command line has a ``__node:=``)."""
+    out = []
     for proc in psutil.process_iter(["cmdline", "status", "create_time"]):
         info = proc.info
         if info["status"] == psutil.STATUS_ZOMBIE or not info["cmdline"]:
             continue
-        if _matches(info["cmdline"], base, ns):
-            found.append(proc)
-    return sorted(found, key=lambda p: (p.info["create_time"], p.pid))
+        if any(a.startswith("__node:=") for a in info["cmdline"]):
+            out.append(proc)
+    return out
 
 
 def _ancestors(proc: psutil.Process) -> set[int]:
