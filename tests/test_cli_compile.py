@@ -176,15 +176,20 @@ def test_default_launch_starts_the_racc_runtime(
     out = tmp_path / "out"
     assert run(capsys, "compile", str(TEDUSAR), "-o", str(out), "--no-svg", "-q")[0] == 0
     text = (out / "observers.launch").read_text()
+    text2 = (out / "observers.launch.xml").read_text()
     for exe in ("observe", "engine", "repairer", "board_client"):
         assert f'pkg="racc" type="{exe}"' in text
-    assert "tug_ist" not in text and "tug_ist" in (out / "observers.launch.xml").read_text()
+        assert f'pkg="racc" exec="{exe}"' in text2
+    assert "tug_ist" not in text and "tug_ist" not in text2
     stack = tmp_path / "stack"
     args = ("compile", str(TEDUSAR), "-o", str(stack), "--no-svg", "-q")
     assert run(capsys, *args, "--model-server-package", "my_server")[0] == 0
     text = (stack / "observers.launch").read_text()
     assert 'pkg="my_server" type="diagnosis_model_server.py"' in text
     assert 'pkg="tug_ist_diagnosis_observers" type="GObs.py"' in text
+    text2 = (stack / "observers.launch.xml").read_text()
+    assert 'pkg="my_server" exec="diagnosis_model_server.py"' in text2
+    assert 'pkg="tug_ist_diagnosis_observers" exec="GObs.py"' in text2
 
 
 def test_two_compiles_are_byte_identical(tmp_path: Path) -> None:

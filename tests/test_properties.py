@@ -38,13 +38,14 @@ def compile_text(text: str) -> dict[str, str]:
     files = {t.filename: t.emit(compiled, EmitOptions()) for t in targets()}
     stack = EmitOptions(observers_package="tug_ist_diagnosis_observers")
     files["stack.launch"] = next(t for t in targets() if t.name == "ros1").emit(compiled, stack)
+    files["stack.launch.xml"] = next(t for t in targets() if t.name == "ros2").emit(compiled, stack)
     return files
 
 
-def check_runtime_launch(text: str, switchable: bool) -> None:
+def check_runtime_launch(text: str, switchable: bool, kind_attr: str = "type") -> None:
     """racc's runtime: observer host, engine, repairer, and the board client with hardware."""
     root = etree.fromstring(text.encode("utf-8"))
-    types = sorted(n.get("type") for n in root.findall("node"))
+    types = sorted(n.get(kind_attr) for n in root.findall("node"))
     expected = ["engine", "observe", "repairer"] + (["board_client"] if switchable else [])
     assert types == sorted(expected)
     assert all(n.get("pkg") == "racc" for n in root.findall("node"))
@@ -113,9 +114,11 @@ def test_random_models_compile_and_every_output_parses(model: Model) -> None:
     reported = [a for o in observers for a in o["reports"]]
     assert set(reported) == set(diagnosis["props"])
 
-    check_runtime_launch(files["observers.launch"], any(h.switchable for h in model.hardware))
+    switchable = any(h.switchable for h in model.hardware)
+    check_runtime_launch(files["observers.launch"], switchable)
+    check_runtime_launch(files["observers.launch.xml"], switchable, "exec")
     check_launch(files["stack.launch"], "type", observers)
-    check_launch(files["observers.launch.xml"], "exec", observers)
+    check_launch(files["stack.launch.xml"], "exec", observers)
 
     domain = domain_parser()(files["repair_domain.pddl"])
     assert {a.name for a in domain.actions} >= {"start_node", "stop_node", "power_up", "shutdown"}

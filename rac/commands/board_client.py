@@ -7,7 +7,7 @@ from typing import Any
 
 from rac.board.channels import ChannelMap
 from rac.board.client import parse_address
-from rac.commands.common import add_command
+from rac.commands.common import add_command, add_ros_option, ros_version
 from rac.loader import load_observers
 from rac.observe.hobs import parse_channels
 
@@ -16,11 +16,12 @@ def register(sub: Any) -> None:
     parser = add_command(
         sub,
         "board-client",
-        "connect the diagnostic board to ROS 1 (/board_measurements, /board_switch)",
+        "connect the diagnostic board to ROS 1 or 2 (/board_measurements, /board_switch)",
         "Connect to the board at --board, publish its measurements on /board_measurements "
         "(one status per channel, docs/runtime.md) and switch channels on requests from the "
         "repair node on /board_switch (diagnostic_msgs/KeyValue: device, on|off). Channels are "
-        "named after the devices of the HObs in OBSERVERS. Needs ROS 1 (rospy).",
+        "named after the devices of the HObs in OBSERVERS. Needs ROS 1 (rospy) or ROS 2 "
+        "(rclpy).",
         "  racc board-client build/tedusar/observers.yaml --board 127.0.0.1:7000",
     )
     parser.add_argument("observers", metavar="OBSERVERS", help="observers.yaml")
@@ -28,6 +29,7 @@ def register(sub: Any) -> None:
         "--board", metavar="HOST:PORT", required=True, type=_address, help="the board"
     )
     parser.add_argument("--hz", type=int, default=10, help="measurements per second (10)")
+    add_ros_option(parser)
     parser.set_defaults(run=run)
 
 
@@ -52,7 +54,9 @@ def channels_of(path: str) -> ChannelMap:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rac.ros1.board_client import run_board_client
-
+    if ros_version(args) == 2:
+        from rac.ros2.board_client import run_board_client
+    else:
+        from rac.ros1.board_client import run_board_client
     run_board_client(args.board, channels_of(args.observers), hz=args.hz)
     return 0

@@ -273,3 +273,34 @@ def write_file_atomically(path: Path, content: str) -> None:
         if tmp is not None and os.path.exists(tmp):
             os.unlink(tmp)  # nothing half-written is left behind
         raise RacError([Diagnostic("RAC004", f"{path}: cannot write: {err}")]) from None
+
+
+def add_ros_option(parser: argparse.ArgumentParser) -> None:
+    """``--ros 1|2``: the transport of a live command (default: from the environment)."""
+    parser.add_argument(
+        "--ros",
+        type=int,
+        choices=(1, 2),
+        help="ROS 1 (rospy) or ROS 2 (rclpy); default: ROS_VERSION, else ROS 2 when rclpy "
+        "is importable and rospy is not, else ROS 1",
+    )
+
+
+def ros_version(args: argparse.Namespace) -> int:
+    """The transport ``--ros`` names, or the one the environment has (see add_ros_option)."""
+    import importlib.util
+
+    chosen = getattr(args, "ros", None)
+    if chosen in (1, 2):
+        return int(chosen)
+    env = os.environ.get("ROS_VERSION", "").strip()
+    if env in ("1", "2"):
+        return int(env)
+
+    def importable(module: str) -> bool:
+        try:
+            return importlib.util.find_spec(module) is not None
+        except (ImportError, ValueError):
+            return False
+
+    return 2 if importable("rclpy") and not importable("rospy") else 1

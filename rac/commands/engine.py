@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from rac.commands.common import add_command
+from rac.commands.common import add_command, add_ros_option, ros_version
 from rac.diagnosis import load_theory
 from rac.repair import robot_name
 
@@ -14,26 +14,31 @@ def register(sub: Any) -> None:
     parser = add_command(
         sub,
         "engine",
-        "run the diagnosis engine as a ROS 1 node",
+        "run the diagnosis engine as a ROS node (ROS 1 or 2)",
         "Collect /observations as Algorithm 10 does and publish the minimal diagnoses of MODEL "
         "(model.yaml, .ram or .json) on /diagnosis (one status per diagnosis, none when "
         "healthy) and a summary on /diagnostics, RATE times a second. The model is reloaded "
         "when its file changes, or on a message to ~reload (std_msgs/String: a path, or empty "
-        "for the same file), without a restart. Needs ROS 1 (rospy).",
+        "for the same file), without a restart. Needs ROS 1 (rospy) or ROS 2 (rclpy; there "
+        "the reload topic is ~/reload, std_msgs/msg/String).",
         "  racc engine build/tedusar/model.yaml\n"
         "  racc engine build/tedusar/model.yaml --rate 2 --max-card 2\n"
-        "  rostopic pub -1 /racc_engine/reload std_msgs/String ''",
+        "  rostopic pub -1 /racc_engine/reload std_msgs/String ''\n"
+        "  ros2 topic pub -1 /racc_engine/reload std_msgs/msg/String \"{data: ''}\"",
     )
     parser.add_argument("model", metavar="MODEL", help="model.yaml (or .ram/.json)")
     parser.add_argument("--rate", type=float, default=1.0, help="diagnoses per second (1)")
     parser.add_argument("--max-card", type=int, help="largest diagnosis searched (default: all)")
+    add_ros_option(parser)
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from rac.ros1.engine import run_engine
-
     theory = load_theory(args.model)  # errors before any ROS work
+    if ros_version(args) == 2:
+        from rac.ros2.engine import run_engine
+    else:
+        from rac.ros1.engine import run_engine
     run_engine(
         args.model,
         load_theory,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from rac.commands.common import add_command
+from rac.commands.common import add_command, add_ros_option, ros_version
 from rac.loader import load_observers
 from rac.observe import ObserverBank
 
@@ -14,26 +14,32 @@ def register(sub: Any) -> None:
     parser = add_command(
         sub,
         "observe",
-        "run every observer of a model as one ROS 1 node",
+        "run every observer of a model as one ROS node (ROS 1 or 2)",
         "Run the observers of OBSERVERS (the observers.yaml 'racc compile' wrote) as one rospy "
-        "node, with one subscription per topic. Nodes are observed through the master and "
-        "their XML-RPC getPid, cpu and memory with psutil, devices on /diagnostics, the board "
-        "on /board_measurements. Observations go to /observations as diagnostic_msgs/"
-        "DiagnosticArray, one status per literal (docs/runtime.md). Needs ROS 1 (rospy).",
+        "or rclpy node, with one subscription per topic. ROS 1: nodes are observed through "
+        "the master and their XML-RPC getPid; ROS 2: through the graph and the process whose "
+        "command line says __node:=NAME. cpu and memory with psutil, devices on /diagnostics, "
+        "the board on /board_measurements. Observations go to /observations as "
+        "diagnostic_msgs DiagnosticArray, one status per literal (docs/runtime.md). Needs "
+        "ROS 1 (rospy) or ROS 2 (rclpy).",
         "  racc observe build/tedusar/observers.yaml\n"
-        "  racc observe build/tedusar/observers.yaml --rate 20",
+        "  racc observe build/tedusar/observers.yaml --rate 20\n"
+        "  racc observe build/tedusar/observers.yaml --ros 2",
     )
     parser.add_argument("observers", metavar="OBSERVERS", help="observers.yaml")
     parser.add_argument(
         "--rate", type=float, default=10.0, help="node and property samples per second (10)"
     )
+    add_ros_option(parser)
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from rac.ros1.observe import run_observe
-
     _, specs = load_observers(args.observers)
     ObserverBank(specs)  # RAC050/RAC051 before any ROS work
+    if ros_version(args) == 2:
+        from rac.ros2.observe import run_observe
+    else:
+        from rac.ros1.observe import run_observe
     run_observe(specs, sample_hz=args.rate)
     return 0

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from rac.commands.common import add_command
+from rac.commands.common import add_command, add_ros_option, ros_version
 from rac.diagnosis import load_theory
 from rac.loader import load_observers
 from rac.logic import mangle
@@ -19,20 +19,30 @@ def register(sub: Any) -> None:
     parser = add_command(
         sub,
         "repairer",
-        "run the repair engine as a ROS 1 node",
+        "run the repair engine as a ROS node (ROS 1 or 2)",
         "Plan a repair with Fast Downward for each diagnosis on /diagnosis (Algorithm 11, "
         "with the observations of /observations) and execute it: a node is stopped and started "
-        "again from its entry in the launch file given with --launch (roslaunch's Python API), "
+        "again from its entry in the launch file given with --launch (ROS 1: roslaunch's Python "
+        "API; ROS 2: the <node> of a launch XML file, started as ros2 launch would, or the "
+        "command of --restart-command), "
         "a switchable device is switched through the board client. Each step waits until its "
         "effect shows in the observations (--step-timeout), is tried once more, then the "
         "repair is abandoned with an escalation (RAC110). Every action and outcome goes to "
-        "/repair_log. Needs ROS 1 (rospy, roslaunch).",
+        "/repair_log. Needs ROS 1 (rospy, roslaunch) or ROS 2 (rclpy).",
         "  racc repairer build/tedusar/model.yaml --launch robot.launch\n"
-        "  racc repairer build/tedusar/model.yaml --launch robot.launch --step-timeout 8",
+        "  racc repairer build/tedusar/model.yaml --launch robot.launch --step-timeout 8\n"
+        "  racc repairer build/tedusar/model.yaml --ros 2 --launch robot.launch.xml\n"
+        "  racc repairer build/tedusar/model.yaml --ros 2 "
+        "--restart-command 'ros2 run my_robot {node} --ros-args -r __node:={node}'",
     )
     parser.add_argument("model", metavar="MODEL", help="model.yaml (or .ram/.json)")
     parser.add_argument(
         "--launch", metavar="FILE", help="the robot's own launch file, whose nodes are restarted"
+    )
+    parser.add_argument(
+        "--restart-command",
+        metavar="TEMPLATE",
+        help="ROS 2: the command that starts a node the launch file lacks ({node}: its name)",
     )
     parser.add_argument(
         "--observers", metavar="FILE", help="observers.yaml (default: beside MODEL)"
@@ -44,6 +54,7 @@ def register(sub: Any) -> None:
     parser.add_argument(
         "--strategy", default="minimal", help="which diagnosis to repair (as racc repair)"
     )
+    add_ros_option(parser)
     parser.set_defaults(run=run)
 
 
@@ -66,10 +77,15 @@ def names(observers: str | None) -> tuple[dict[str, str], dict[str, str]]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rac.ros1.repairer import load_launch_nodes, run_repairer
-
     theory = load_theory(args.model)
-    if args.launch:
+    ros = ros_version(args)
+    if args.launch and ros == 2:
+        from rac.ros2.launch import load_launch
+
+        load_launch(args.launch)  # RAC117 before any ROS work
+    elif args.launch:
+        from rac.ros1.repairer import load_launch_nodes
+
         load_launch_nodes(args.launch)  # RAC059 before any ROS work
     observers = args.observers or str(Path(args.model).parent / "observers.yaml")
     args.launch = args.launch or None  # the compiled launch file passes "--launch=" for none
@@ -79,12 +95,17 @@ def run(args: argparse.Namespace) -> int:
         verify_timeout_s=args.verify_timeout,
         strategy=args.strategy,
     )
+    robot = robot_name(theory, args.model)
+    if ros == 2:
+        from rac.ros2.repairer import run_repairer as run2
+
+        restart = args.restart_command or None
+        run2(theory, robot, launch_file=args.launch, restart=restart, nodes=nodes,
+             devices=devices, settings=settings)  # fmt: skip
+        return 0
+    from rac.ros1.repairer import run_repairer
+
     run_repairer(
-        theory,
-        robot_name(theory, args.model),
-        launch_file=args.launch,
-        nodes=nodes,
-        devices=devices,
-        settings=settings,
+        theory, robot, launch_file=args.launch, nodes=nodes, devices=devices, settings=settings
     )
     return 0

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from rac.commands.common import add_command
+from rac.commands.common import add_command, add_ros_option, ros_version
 from rac.errors import Diagnostic, RacError
 
 
@@ -16,40 +16,52 @@ def register(sub: Any) -> None:
     parser = add_command(
         sub,
         "ros-package",
-        "write the racc ROS 1 package (package.xml and the node executables)",
-        "Write DIR/racc: a package.xml and the executables observe, engine, repairer, "
+        "write the racc ROS package (ROS 1: package.xml and scripts; ROS 2: an install prefix)",
+        "ROS 1: write DIR/racc, a package.xml and the executables observe, engine, repairer, "
         "board_client and demo_node, each run by this Python (a venv that sees Debian's ROS "
-        "packages). Put DIR on ROS_PACKAGE_PATH so that the compiled observers.launch finds "
-        "them.",
-        "  racc ros-package -o ~/ros\n  export ROS_PACKAGE_PATH=~/ros:$ROS_PACKAGE_PATH",
+        "packages); put DIR on ROS_PACKAGE_PATH so that the compiled observers.launch finds "
+        "them. ROS 2 (--ros 2): install the package into the prefix DIR: its ament index "
+        "entry (DIR/share/ament_index/resource_index/packages/racc), DIR/share/racc/"
+        "package.xml and the executables (and record) in DIR/lib/racc; put DIR on "
+        "AMENT_PREFIX_PATH so that ros2 launch and ros2 run find them.",
+        "  racc ros-package -o ~/ros\n  export ROS_PACKAGE_PATH=~/ros:$ROS_PACKAGE_PATH\n"
+        "  racc ros-package --ros 2 -o ~/racc_ws/install\n"
+        "  export AMENT_PREFIX_PATH=~/racc_ws/install:$AMENT_PREFIX_PATH",
     )
     parser.add_argument("-o", "--output", metavar="DIR", required=True, help="where to write")
     parser.add_argument("--python", metavar="EXE", help="interpreter (default: this one)")
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing")
+    add_ros_option(parser)
     parser.set_defaults(run=run)
 
 
-def write_package(out: Path, python: str | None = None) -> Path:
-    from rac.ros1.package import package_files
+def write_package(out: Path, python: str | None = None, ros: int = 1) -> Path:
+    """The package's directory (ROS 1) or the prefix it is installed in (ROS 2)."""
+    if ros == 2:
+        from rac.ros2.package import package_files
+    else:
+        from rac.ros1.package import package_files
 
     try:
         for rel, text in package_files(python).items():
             path = out / rel
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(text, encoding="utf-8")
-            if "/scripts/" in rel:
+            if "/scripts/" in rel or rel.startswith("lib/"):
                 path.chmod(0o755)
     except OSError as err:
         raise RacError([Diagnostic("RAC004", f"{out}: cannot write: {err}")]) from None
-    return out / "racc"
+    return out if ros == 2 else out / "racc"
 
 
 def run(args: argparse.Namespace) -> int:
     out = Path(args.output).resolve()
-    where = write_package(out, args.python)
+    ros = ros_version(args)
+    where = write_package(out, args.python, ros)
     if not args.quiet:
         print(f"wrote {where} (executables run {args.python or sys.executable})")
-        path = os.environ.get("ROS_PACKAGE_PATH", "")
+        variable = "AMENT_PREFIX_PATH" if ros == 2 else "ROS_PACKAGE_PATH"
+        path = os.environ.get(variable, "")
         if str(out) not in path.split(os.pathsep):
-            print(f"now: export ROS_PACKAGE_PATH={out}{os.pathsep}$ROS_PACKAGE_PATH")
+            print(f"now: export {variable}={out}{os.pathsep}${variable}")
     return 0

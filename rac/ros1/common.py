@@ -116,6 +116,15 @@ def topic_types() -> dict[str, str]:
     return {str(t): str(ty) for t, ty in pairs} if code == 1 else {}
 
 
+def log_to_ros(rospy: Any) -> Any:
+    """``log(level, text)`` for the engines: rospy's log at the status level."""
+
+    def log(level: int, text: str) -> None:
+        (rospy.logerr if level >= 2 else rospy.logwarn if level == 1 else rospy.loginfo)(text)
+
+    return log
+
+
 # -- diagnostic statuses ---------------------------------------------------------------------
 
 

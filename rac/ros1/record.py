@@ -8,11 +8,10 @@ import time
 from pathlib import Path
 from typing import Any
 
-import psutil
 from rosbags.rosbag1 import Writer
 
 from rac.ros1.common import connection_type, require_ros, resolve_pid, system_state
-from rac.runtime.record import graph_yaml, properties_rows, robot_node
+from rac.runtime.record import PropertySampler, graph_yaml, robot_node
 
 DISCOVER_S = 0.5
 PROPERTY_HZ = 2.0
@@ -51,7 +50,7 @@ def run_record(
             count[0] += 1
 
     subscribed: dict[str, Any] = {}
-    procs: dict[str, psutil.Process] = {}
+    sampler = PropertySampler(resolve_pid)
     rows = ["time,node,cpu,mem"]
     start = time.time()
     next_sample = start
@@ -70,26 +69,8 @@ def run_record(
                     )
             next_discover = now + DISCOVER_S
         if now >= next_sample:
-            names = sorted({n for _, ns in pubs for n in ns} | {n for _, ns in subs for n in ns})
-            samples = []
-            for node in names:
-                if node == me or not robot_node(node):
-                    continue
-                proc = procs.get(node)
-                if proc is None or not proc.is_running():
-                    pid = resolve_pid(node)
-                    if pid is None or pid < 0:
-                        continue
-                    proc = procs[node] = psutil.Process(pid)
-                    proc.cpu_percent(None)
-                    continue
-                try:
-                    samples.append(
-                        (node.lstrip("/"), proc.cpu_percent(None), float(proc.memory_info().rss))
-                    )
-                except psutil.Error:
-                    procs.pop(node, None)
-            rows.extend(properties_rows(now, samples))
+            names = {n for _, ns in pubs for n in ns} | {n for _, ns in subs for n in ns}
+            rows.extend(sampler.rows(now, (n for n in names if n != me and robot_node(n))))
             next_sample = now + 1.0 / PROPERTY_HZ
         time.sleep(0.05)
     for sub in subscribed.values():

@@ -13,7 +13,6 @@ The executor (:mod:`rac.runtime.repairer`) decides; this node carries out its re
 
 from __future__ import annotations
 
-import os
 import signal
 import threading
 import time
@@ -23,12 +22,10 @@ from typing import Any
 from rac.diagnosis import Theory
 from rac.errors import Diagnostic, RacError
 from rac.ros1.common import CALLER, from_array, node_uri, proxy, require_ros, resolve_pid, to_array
-from rac.runtime.procs import REMOTE
+from rac.runtime.procs import REMOTE, terminate
 from rac.runtime.repairer import LogEntry, RepairExecutor, Settings
-from rac.runtime.status import row_diagnosis, row_verdict
 
 REPAIR_LOG = "/repair_log"
-STOP_GRACE_S = 1.5
 
 
 def load_launch_nodes(path: str) -> dict[str, Any]:
@@ -94,7 +91,9 @@ class Ros1Actuator:
         except OSError:
             pass
         if pid is not None and pid != REMOTE:
-            threading.Thread(target=_terminate, args=(pid,), daemon=True).start()
+            threading.Thread(
+                target=terminate, args=(pid, (None, signal.SIGTERM, signal.SIGKILL)), daemon=True
+            ).start()
 
     def switch(self, device: str, on: bool) -> None:
         if self.switches.get_num_connections() == 0:
@@ -111,31 +110,6 @@ class Ros1Actuator:
 
     def shutdown(self) -> None:
         self.launch.stop()
-
-
-def _terminate(pid: int) -> None:
-    deadline = time.time() + STOP_GRACE_S
-    while time.time() < deadline:
-        if not _alive(pid):
-            return
-        time.sleep(0.05)
-    for sig in (signal.SIGTERM, signal.SIGKILL):
-        try:
-            os.kill(pid, sig)
-        except OSError:
-            return
-        time.sleep(STOP_GRACE_S)
-        if not _alive(pid):
-            return
-
-
-def _alive(pid: int) -> bool:
-    import psutil
-
-    try:
-        return psutil.Process(pid).status() != psutil.STATUS_ZOMBIE
-    except psutil.Error:
-        return False
 
 
 def run_repairer(
@@ -166,21 +140,12 @@ def run_repairer(
     lock = threading.Lock()
 
     def on_observations(array: Any) -> None:
-        t = time.time()
         with lock:
-            for row in from_array(array):
-                verdict = row_verdict(row, t)
-                if verdict is not None:
-                    executor.observe(verdict)
+            executor.observation_rows(from_array(array), time.time())
 
     def on_diagnosis(array: Any) -> None:
-        rows = from_array(array)
-        found = [row_diagnosis(r) for r in rows]
         with lock:
-            if any(d is None for d in found):
-                executor.diagnosis(None)
-            else:
-                executor.diagnosis(tuple(d for d in found if d is not None))
+            executor.diagnosis_rows(from_array(array))
 
     rospy.Subscriber("/observations", DiagnosticArray, on_observations, queue_size=50)
     rospy.Subscriber("/diagnosis", DiagnosticArray, on_diagnosis, queue_size=10)

@@ -25,7 +25,12 @@ device on, as a driver that lost its hardware connection does.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import heapq
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -33,6 +38,7 @@ import numpy as np
 
 from rac.errors import Diagnostic, RacError
 from rac.ir import Model, Node, Topic
+from rac.runtime.status import Row, row_channel
 from rac.synth.faults import FAULT_KINDS, FAULT_SPEC, FREQ_FACTOR, Fault, parse_fault
 from rac.synth.recording import Plan, PlannedTopic, SynthOptions, _assignments, build_message
 from rac.synth.sensors import content, role_of
@@ -46,6 +52,7 @@ DEFAULT_PERIOD_S = 300.0
 STATUS_HZ = 1.0  # /diagnostics of a node that reports a device
 MIN_BURN = 30.0  # percent of one core for a cpu fault
 DEFAULT_MEM = 100 * 1024 * 1024
+STAND_IN = "std_msgs/msg/Float64MultiArray"
 
 
 def parse_demo_fault(spec: str, model: Model) -> Fault:
@@ -96,6 +103,7 @@ class DemoNode:
         seed: int = 0,
         period_s: float = DEFAULT_PERIOD_S,
         faults: Sequence[Fault] = (),
+        ros_version: int = 1,
     ) -> None:
         by_name = model.node_by_name()
         if node not in by_name:
@@ -104,6 +112,7 @@ class DemoNode:
         self.model, self.name, self.node = model, node, by_name[node]
         self.epoch, self.started_world = epoch, started - epoch
         self.period_s = period_s
+        self.ros_version = ros_version
         self.faults = tuple(f for f in faults if f.kind != "trip")
         switchable = {h.name.value: h.channel for h in model.hardware if h.switchable}
         self.devices = tuple(
@@ -124,7 +133,7 @@ class DemoNode:
         rng = np.random.default_rng(seed)
         slips = [f for f in self.faults if f.kind == "slip"]
         world = simulate(self.period_s, rng, slips)
-        store = new_typestore(1)
+        store = new_typestore(self.ros_version)
         mine = {p.topic.value for p in self.node.publishes}
         options = SynthOptions(duration=self.period_s, seed=seed)
         self._plan_holder = Plan(options, 0.0, store, (), "", MessageFactory(store))
@@ -154,7 +163,7 @@ class DemoNode:
             leaves,
             _assignments(c, leaves, times, 0.0),
         )
-        definition, md5 = store.generate_msgdef(typename)
+        definition, md5 = store.generate_msgdef(typename) if self.ros_version == 1 else ("", "")
         return LiveTopic(
             topic.name.value,
             typename.replace("/msg/", "/"),
@@ -176,7 +185,28 @@ class DemoNode:
             msg.header.stamp.sec = int(now)
             msg.header.stamp.nanosec = int((now % 1.0) * 1e9)
         store = self._plan_holder.store
-        return bytes(store.serialize_ros1(msg, topic.typename))
+        if self.ros_version == 1:
+            return bytes(store.serialize_ros1(msg, topic.typename))
+        return bytes(store.serialize_cdr(msg, topic.typename))
+
+    def stand_in(self, topic: LiveTopic, now: float) -> bytes:
+        """The message as ``std_msgs/msg/Float64MultiArray`` CDR: its numeric fields in
+        order.  A ROS 2 publisher needs the type's generated package; a type without one
+        here (a robot's own messages) travels as this stand-in."""
+        t = (now - self.epoch) % self.period_s
+        i = min(int(t * topic.rate_hz), topic.planned.times.size - 1)
+        values = []
+        for _, _, column in topic.planned.assignments:
+            value = column[i]
+            if isinstance(value, int | float) and not isinstance(value, bool):
+                values.append(float(value))
+        store = self._plan_holder.store
+        types = store.types
+        array = types[STAND_IN](
+            types["std_msgs/msg/MultiArrayLayout"](dim=[], data_offset=0),
+            np.array(values, dtype=np.float64),
+        )
+        return bytes(store.serialize_cdr(array, STAND_IN))
 
     def _active(self, kind: str, target: str, now: float) -> bool:
         t = now - self.epoch
@@ -225,3 +255,111 @@ def node_names(model: Model) -> tuple[str, ...]:
 
 def driver_nodes(model: Model) -> dict[str, Node]:
     return {n.name.value: n for n in model.nodes if n.drives}
+
+
+# -- one node's process ---------------------------------------------------------------------
+
+# The node's "body": a small companion process standing for the driver, so that the
+# observers' cpu and memory readings are those of a process the size of a real driver (a
+# Python ROS node alone is larger than most nodes' memory limits).  ROS 1 reports its pid
+# through getPid; on ROS 2 it carries the node's ``__node:=`` argument and, being the
+# innermost process with it, is the one found.  cpu and mem faults act on it; it ends
+# with its node (its stdin closes).
+BODY = """
+import os, sys, threading, time
+state = {"cpu": 0.0, "mem": 0}
+held = []
+def read():
+    for line in sys.stdin:
+        key, _, value = line.partition(" ")
+        state[key] = float(value)
+    os._exit(0)
+threading.Thread(target=read, daemon=True).start()
+while True:
+    want = int(state["mem"])
+    if want and not held:
+        block = bytearray(want)
+        for i in range(0, want, 4096):
+            block[i] = 1
+        held.append(block)
+    elif not want:
+        held.clear()
+    burn = min(max(state["cpu"], 0.0), 0.95)
+    until = time.time() + burn * 0.1
+    while time.time() < until:
+        pass
+    time.sleep(0.1 * (1 - burn))
+"""
+
+
+def start_body(marker: Sequence[str] = ()) -> subprocess.Popen[str]:
+    """The body process; ``marker``: arguments it ignores that show on its command line."""
+    return subprocess.Popen(
+        [sys.executable, "-S", "-c", BODY, *marker], stdin=subprocess.PIPE, text=True, bufsize=1
+    )
+
+
+class DemoRunner:
+    """The publication schedule of one demo node, transport-free.  The transport gives
+    ``publish(topic, now)`` (it serializes and sends), ``status(rows)`` for
+    ``/diagnostics`` and ``log(level, text)``, feeds ``/board_measurements`` to
+    :meth:`board_rows`, and calls :meth:`step` until it returns False (a crash fault)."""
+
+    def __init__(
+        self,
+        demo: DemoNode,
+        body: subprocess.Popen[str],
+        publish: Callable[[LiveTopic, float], None],
+        status: Callable[[list[Row]], None],
+        log: Callable[[int, str], None],
+    ) -> None:
+        self.demo, self.body = demo, body
+        self.publish, self.status, self.log = publish, status, log
+        self.lost = threading.Event()  # a device of this driver lost power: until restarted
+        self.channels = {channel for _, channel in demo.devices}
+        self._told: tuple[float, int] = (0.0, 0)
+        now = time.time()
+        self._queue = [(now, i) for i in range(len(demo.topics))]
+        heapq.heapify(self._queue)
+        self._next_status = now
+
+    def board_rows(self, rows: Iterable[Row]) -> None:
+        for row in rows:
+            state = row_channel(row, 0.0)
+            if state is not None and state.channel in self.channels and not state.on:
+                if not self.lost.is_set():
+                    self.log(1, f"t={time.time():.3f} lost the device on channel {state.channel}")
+                self.lost.set()
+
+    def step(self) -> bool:
+        """Publish what is due, then sleep until the next message (at most 0.1 s)."""
+        demo, now = self.demo, time.time()
+        if demo.crashed(now):
+            self.log(2, f"t={now:.3f} demo fault: {demo.name} crashes")
+            return False
+        wanted = (demo.cpu_burn(now), demo.mem_hold(now))
+        if wanted != self._told and self.body.stdin is not None:
+            self.body.stdin.write(f"cpu {wanted[0]}\nmem {wanted[1]}\n")
+            self._told = wanted
+        if demo.reports and now >= self._next_status:
+            lost = self.lost.is_set()
+            level = 2 if lost else 0
+            self.status(
+                [Row(f"{demo.name}: {d}", level, "lost" if lost else "ok", d) for d in demo.reports]
+            )
+            self._next_status = now + 1.0 / STATUS_HZ
+        queue = self._queue
+        while queue and queue[0][0] <= now:
+            due, i = heapq.heappop(queue)
+            topic = demo.topics[i]
+            if not self.lost.is_set():
+                self.publish(topic, now)
+            nxt = due + 1.0 / demo.rate(topic, now)
+            heapq.heappush(queue, (max(nxt, now - 0.5), i))
+        wake = min(queue[0][0] if queue else now + 0.1, now + 0.1)
+        if demo.reports:
+            wake = min(wake, self._next_status)
+        delay = wake - time.time()
+        if delay > 0:
+            time.sleep(delay)
+        return True

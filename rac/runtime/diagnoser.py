@@ -10,13 +10,19 @@ tick diagnoses it against the new theory.
 
 from __future__ import annotations
 
+import os
+import threading
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 from rac.diagnosis import DiagnosisResult, Theory, diagnose
 from rac.diagnosis.theory import known_atoms
+from rac.errors import RacError
 from rac.logic import NEG_PREFIX, Atom
 from rac.observe import ObservationSet, Verdict
-from rac.runtime.status import Row, diagnosis_rows, summary_row
+from rac.runtime.status import ERROR, OK, Row, diagnosis_rows, row_verdict, summary_row
+
+MIN_GAP_S = 0.2  # between diagnoses triggered by changed observations
 
 
 @dataclass(frozen=True, slots=True)
@@ -79,3 +85,84 @@ def diagnosis_line(t: float, result: DiagnosisResult) -> str:
         return f"t={t:.3f} diagnosis impossible (the observations contradict the model)"
     shown = " | ".join("{" + ",".join(d) + "}" for d in result.diagnoses)
     return f"t={t:.3f} diagnosis {shown}"
+
+
+def _stamp(path: str) -> tuple[float, int] | None:
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return st.st_mtime, st.st_size
+
+
+class EngineLoop:
+    """The diagnosis node's schedule, transport-free: observation arrays in (any thread),
+    reload requests in, and on :meth:`step` the tick to publish when one is due (at
+    ``rate_hz``, or ``MIN_GAP_S`` after Θ changed).  The model is reloaded when its file
+    changes or on request; a model that does not load is reported and the old one kept.
+    ``log(level, text)`` receives every decision."""
+
+    def __init__(
+        self,
+        path: str,
+        load: Callable[[str], Theory],
+        robot: str,
+        node: str,
+        log: Callable[[int, str], None],
+        *,
+        rate_hz: float = 1.0,
+        max_card: int | None = None,
+    ) -> None:
+        self.load, self.log = load, log
+        self.diagnoser = Diagnoser(load(path), robot, node, max_card)
+        self.period = 1.0 / rate_hz
+        self.path, self.stamp, self.request = path, _stamp(path), ""
+        self._lock = threading.Lock()
+        self._last = float("-inf")
+
+    def observation_rows(self, rows: Iterable[Row], t: float) -> None:
+        with self._lock:
+            for row in rows:
+                verdict = row_verdict(row, t)
+                if verdict is not None:
+                    self.diagnoser.observe(verdict)
+
+    def request_reload(self, target: str) -> None:
+        with self._lock:
+            self.request = target or self.path
+
+    def step(self, now: float) -> Tick | None:
+        with self._lock:
+            pending = self.diagnoser.pending
+            request, self.request = self.request, ""
+        since = now - self._last
+        if not (since >= self.period or (pending and since >= MIN_GAP_S)) and not request:
+            return None
+        self._last = now
+        if request:
+            self._reload(request, now)
+        elif _stamp(self.path) != self.stamp:
+            self._reload(self.path, now)
+        with self._lock:
+            tick = self.diagnoser.tick()
+        if tick.changed:
+            self.log(OK, diagnosis_line(now, tick.result))
+        return tick
+
+    def _reload(self, target: str, now: float) -> None:
+        try:
+            theory = self.load(target)
+        except RacError as err:
+            self.log(
+                ERROR,
+                f"racc engine: model {target} not reloaded, keeping the old one:\n" + err.render(),
+            )
+            return
+        with self._lock:
+            self.diagnoser.load(theory)
+            self.path, self.stamp = target, _stamp(target)
+        self.log(
+            OK,
+            f"t={now:.3f} model reloaded from {target} ({len(theory.clauses)} clauses, "
+            f"{len(theory.components)} components)",
+        )

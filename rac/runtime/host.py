@@ -10,11 +10,13 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
 
 from rac.logic import Atom
-from rac.observe import Event, Message, ObserverBank, Verdict
+from rac.observe import ChannelState, DeviceStatus, Event, Message, ObserverBank, Verdict
 from rac.passes.observers import ObserverSpec
-from rac.runtime.status import Row, literal_row
+from rac.runtime.procs import ProcessProbe
+from rac.runtime.status import Row, literal_row, row_channel
 
 
 class ObserverHost:
@@ -54,6 +56,17 @@ class ObserverHost:
         with self._lock:
             for e in events:
                 self._feed(e)
+
+    def device_rows(self, rows: Iterable[Row]) -> None:
+        """A ``/diagnostics`` array (DObs)."""
+        t = self.clock()
+        self.feed([DeviceStatus(t, r.name, r.hardware_id, r.level) for r in rows])
+
+    def channel_rows(self, rows: Iterable[Row]) -> None:
+        """A ``/board_measurements`` array (HObs)."""
+        t = self.clock()
+        states = [row_channel(r, t) for r in rows]
+        self.feed([s for s in states if isinstance(s, ChannelState)])
 
     def advance(self) -> None:
         with self._lock:
@@ -97,3 +110,33 @@ class ObserverHost:
 def change_line(v: Verdict, observer: str) -> str:
     """A log line for one verdict change, greppable: ``t=… observation not_ok(pose) …``."""
     return f"t={v.t:.3f} observation {v} (by {observer})"
+
+
+@dataclass(frozen=True, slots=True)
+class HostStep:
+    lines: tuple[str, ...]  # verdict changes, for the log
+    warnings: tuple[str, ...]  # observers that failed
+    rows: tuple[Row, ...] | None  # the observation set to publish now (None: nothing)
+
+
+class HostLoop:
+    """One sample period of the observer host node: node and property samples, the
+    observers' clocks, what changed, and whether to publish (on a change, and every
+    ``republish_s`` for late subscribers)."""
+
+    def __init__(self, host: ObserverHost, probe: ProcessProbe, republish_s: float = 1.0) -> None:
+        self.host, self.probe, self.republish_s = host, probe, republish_s
+        self._last_publish = float("-inf")
+
+    def step(self, now: float) -> HostStep:
+        host = self.host
+        host.feed(self.probe.sample(host.clock()))
+        host.advance()
+        changes = host.take_changes()
+        lines = tuple(change_line(v, host.owner.get(v.atom, "")) for v in changes)
+        warnings = tuple(f"an observer failed on {e}" for e in host.take_errors()[:5])
+        rows = None
+        if changes or now - self._last_publish >= self.republish_s:
+            rows = host.rows()
+            self._last_publish = now
+        return HostStep(lines, warnings, rows)

@@ -5,11 +5,18 @@ master's lookupNode, then the node's getPid) and returns its pid, -1 for a node 
 but runs on another machine, or None when the node is not there.  Once a local pid is known,
 liveness and properties come from psutil without asking the middleware again; a node whose
 process has gone is resolved afresh (a restarted node has a new pid).
+
+ROS 2 has no getPid: a node's process is found in the process table by the ``__node:=NAME``
+remapping on its command line (:func:`node_processes`), which ``ros2 launch``, ``ros2 run
+... --ros-args -r __node:=NAME``, ``racc demo`` and ``racc repairer`` all put there.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+import os
+import signal
+import time
+from collections.abc import Callable, Iterable, Sequence
 
 import psutil
 
@@ -25,11 +32,16 @@ class ProcessProbe:
         resolve: Callable[[str], int | None],
         properties: Iterable[tuple[str, str]] = (),
         resolve_every_s: float = 0.5,
+        recheck_s: float | None = None,
     ) -> None:
         self.nodes = tuple(sorted(set(nodes) | {n for n, _ in properties}))
         self.properties = frozenset(properties)
         self.resolve = resolve
         self.resolve_every_s = resolve_every_s
+        # ROS 2: a node's process is found by its command line, and a starting node's
+        # process matches before its real one does (a wrapper, a demo node's body): a live
+        # process is resolved again every ``recheck_s`` and replaced when another answers.
+        self.recheck_s = recheck_s
         self._procs: dict[str, psutil.Process] = {}
         self._asked: dict[str, float] = {}  # when the middleware was last asked
         self._alive: dict[str, bool] = {}
@@ -67,11 +79,29 @@ class ProcessProbe:
                 return False
         return True
 
+    def _recheck(self, node: str, proc: psutil.Process, t: float) -> psutil.Process:
+        assert self.recheck_s is not None
+        if t - self._asked.get(node, float("-inf")) < self.recheck_s:
+            return proc
+        self._asked[node] = t
+        pid = self.resolve(node)
+        if pid is None or pid == REMOTE or pid == proc.pid:
+            return proc
+        try:
+            fresh = psutil.Process(pid)
+            fresh.cpu_percent(None)
+        except psutil.Error:
+            return proc
+        self._procs[node] = fresh
+        return fresh
+
     def sample(self, t: float, with_properties: bool = True) -> list[Event]:
         """A liveness sample of every node that can be judged now, and its properties."""
         out: list[Event] = []
         for node in self.nodes:
             proc = self._local(node)
+            if proc is not None and self.recheck_s is not None:
+                proc = self._recheck(node, proc, t)
             if proc is not None:
                 running: bool | None = True
             else:
@@ -93,3 +123,87 @@ class ProcessProbe:
             except psutil.Error:
                 self._procs.pop(node, None)
         return out
+
+
+# -- processes by their ROS 2 command line -------------------------------------------------
+
+
+def _matches(cmdline: Sequence[str], base: str, ns: str) -> bool:
+    if f"__node:={base}" not in cmdline:
+        return False
+    wanted = "/" + ns.strip("/")
+    spaces = [a.partition(":=")[2] for a in cmdline if a.startswith("__ns:=")]
+    return (spaces[-1] if spaces else "/").rstrip("/") == wanted.rstrip("/")
+
+
+def node_processes(
+    node: str, table: Sequence[psutil.Process] | None = None
+) -> list[psutil.Process]:
+    """Live processes whose command line remaps the node name to ``node`` ("ns/name" or
+    "name"), oldest first; ``table``: a :func:`process_table` to search."""
+    ns, _, base = node.strip("/").rpartition("/")
+    found = []
+    for proc in process_table() if table is None else table:
+        if _matches(proc.info["cmdline"], base, ns):
+            found.append(proc)
+    return sorted(found, key=lambda p: (p.info["create_time"], p.pid))
+
+
+def process_table() -> list[psutil.Process]:
+    """Live processes that may be ROS 2 nodes (their command line has a ``__node:=``)."""
+    out = []
+    for proc in psutil.process_iter(["cmdline", "status", "create_time"]):
+        info = proc.info
+        if info["status"] == psutil.STATUS_ZOMBIE or not info["cmdline"]:
+            continue
+        if any(a.startswith("__node:=") for a in info["cmdline"]):
+            out.append(proc)
+    return out
+
+
+def _ancestors(proc: psutil.Process) -> set[int]:
+    try:
+        return {p.pid for p in proc.parents()}
+    except psutil.Error:
+        return set()
+
+
+def innermost(procs: Sequence[psutil.Process]) -> psutil.Process | None:
+    """The match no other match descends from (the newest of several).  ``ros2 run``, a
+    shell or a launch prefix carries the same arguments as the process it starts; the
+    innermost one is the node itself (for ``racc demo``: its driver-sized body)."""
+    inner = [p for p in procs if not any(p.pid in _ancestors(q) for q in procs if q is not p)]
+    return inner[-1] if inner else None
+
+
+def outermost(procs: Sequence[psutil.Process]) -> list[psutil.Process]:
+    """The matches no other match started: what to signal to stop the node."""
+    pids = {p.pid for p in procs}
+    return [p for p in procs if not (_ancestors(p) & (pids - {p.pid}))]
+
+
+def alive(pid: int) -> bool:
+    try:
+        return bool(psutil.Process(pid).status() != psutil.STATUS_ZOMBIE)
+    except psutil.Error:
+        return False
+
+
+def terminate(pid: int, signals: Sequence[int | None], grace_s: float = 1.5) -> None:
+    """Each signal in turn (None: only wait) until the process is gone, ``grace_s`` apart."""
+    for sig in signals:
+        if not alive(pid):
+            return
+        if sig is not None:
+            try:
+                os.kill(pid, sig)
+            except OSError:
+                return
+        deadline = time.time() + grace_s
+        while time.time() < deadline:
+            if not alive(pid):
+                return
+            time.sleep(0.05)
+
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGKILL)

@@ -3,8 +3,9 @@ properties CSV, in the shapes ``racc learn --graph`` and ``--properties`` read."
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 
+import psutil
 import yaml
 
 from rac.learn.graph import INFRASTRUCTURE_TOPICS
@@ -47,3 +48,35 @@ def graph_yaml(
 def properties_rows(t: float, samples: Iterable[tuple[str, float, float]]) -> list[str]:
     """CSV lines ``time,node,cpu,mem`` for (node, cpu %, mem bytes) samples at ``t``."""
     return [f"{t:.3f},{node},{cpu:.3f},{mem:.0f}" for node, cpu, mem in samples]
+
+
+class PropertySampler:
+    """cpu and memory of the robot's nodes for the properties CSV.  ``resolve(node)``
+    gives a node's local pid (None or negative: not here); a process is asked for its cpu
+    from the second sample on (psutil measures between two calls)."""
+
+    def __init__(self, resolve: Callable[[str], int | None]) -> None:
+        self.resolve = resolve
+        self._procs: dict[str, psutil.Process] = {}
+
+    def rows(self, now: float, nodes: Iterable[str]) -> list[str]:
+        samples = []
+        for node in sorted(set(nodes)):
+            proc = self._procs.get(node)
+            if proc is None or not proc.is_running():
+                pid = self.resolve(node)
+                if pid is None or pid < 0:
+                    continue
+                try:
+                    proc = self._procs[node] = psutil.Process(pid)
+                    proc.cpu_percent(None)
+                except psutil.Error:
+                    pass
+                continue
+            try:
+                samples.append(
+                    (node.lstrip("/"), proc.cpu_percent(None), float(proc.memory_info().rss))
+                )
+            except psutil.Error:
+                self._procs.pop(node, None)
+        return properties_rows(now, samples)

@@ -18,7 +18,7 @@ goes to ``log`` as a :class:`LogEntry`.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from enum import Enum
 from typing import Protocol
@@ -28,7 +28,7 @@ from rac.errors import Diagnostic, RacError
 from rac.logic import Atom
 from rac.observe import ObservationSet, Verdict
 from rac.repair import NoRepairPlan, Step, prepare, solve
-from rac.runtime.status import ERROR, OK, WARN, Row
+from rac.runtime.status import ERROR, OK, WARN, Row, row_diagnosis, row_verdict
 
 EFFECTS = {  # action -> (predicate of the effect, its polarity)
     "stop_node": ("running", False),
@@ -128,6 +128,21 @@ class RepairExecutor:
             self._since = now
         self._diagnoses = diagnoses
         self._diagnosis_t = now
+
+    def observation_rows(self, rows: Iterable[Row], t: float) -> None:
+        """An ``/observations`` array, as a transport receives it."""
+        for row in rows:
+            verdict = row_verdict(row, t)
+            if verdict is not None:
+                self.observe(verdict)
+
+    def diagnosis_rows(self, rows: Iterable[Row]) -> None:
+        """A ``/diagnosis`` array (the "no diagnosis" row: nothing explains Θ)."""
+        found = [row_diagnosis(r) for r in rows]
+        if any(d is None for d in found):
+            self.diagnosis(None)
+        else:
+            self.diagnosis(tuple(d for d in found if d is not None))
 
     # -- the loop ------------------------------------------------------------------------
     def tick(self) -> None:

@@ -1,17 +1,19 @@
 """The values observers read from raw messages, for any runtime that receives bytes.
 
 A ROS 1 subscription delivers serialized bytes with the connection's type name and message
-definition; this module deserializes them with rosbags (so no message package has to be
-installed, custom types included), reads the fields the observers asked for with the same
-layout and extractor ``racc learn`` uses on a recording (``yaw``, ``pitch`` and ``roll``
-derived from a quaternion), and unwraps yaw and roll into continuous signals as the learner
-does, incrementally.  Only topics whose fields some observer reads are deserialized at all:
-a frequency observer needs the arrival time only.
+definition, a ROS 2 raw subscription CDR bytes of a type named in the graph; this module
+deserializes them with rosbags (ROS 1: no message package has to be installed, custom
+types included; ROS 2: the types rosbags knows, standard ones), reads the fields the
+observers asked for with the same layout and extractor ``racc learn`` uses on a recording
+(``yaw``, ``pitch`` and ``roll`` derived from a quaternion), and unwraps yaw and roll into
+continuous signals as the learner does, incrementally.  Only topics whose fields some
+observer reads are deserialized at all: a frequency observer needs the arrival time only.
 """
 
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Callable, Mapping
 
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
@@ -35,8 +37,11 @@ def store_type(ros_type: str) -> str:
 class Decoders:
     """One typestore for a process; a :class:`TopicValues` per subscribed topic."""
 
-    def __init__(self) -> None:
-        self.store: Typestore = get_typestore(Stores.ROS1_NOETIC)
+    def __init__(self, ros_version: int = 1) -> None:
+        self.ros_version = ros_version
+        self.store: Typestore = get_typestore(
+            Stores.ROS1_NOETIC if ros_version == 1 else Stores.ROS2_HUMBLE
+        )
 
     def register(self, ros_type: str, definition: str) -> str:
         """Make ``ros_type`` known from its ROS 1 message definition; its typestore name."""
@@ -56,10 +61,12 @@ class Decoders:
         selector = FieldSelector(declared={topic: fields})
         layout = layout_of(self.store.fielddefs, name, topic, selector)
         extract = field_extractor(layout)
-        store = self.store
+        deserialize = (
+            self.store.deserialize_ros1 if self.ros_version == 1 else self.store.deserialize_cdr
+        )
 
         def read(raw: bytes) -> tuple[float, ...]:
-            return extract(store.deserialize_ros1(raw, name))
+            return extract(deserialize(raw, name))
 
         return TopicValues(topic, layout.fields, read)
 
@@ -101,3 +108,27 @@ class TopicValues:
                 value += self._turns[i]
             out[field] = value
         return out
+
+
+class Readers:
+    """A :class:`TopicValues` per topic, made on its first message (thread-safe): a
+    transport calls :meth:`values` from any callback thread with the raw bytes and, only
+    the first time, the topic's type and definition (``describe``)."""
+
+    def __init__(self, fields: Mapping[str, frozenset[str]], ros_version: int = 1) -> None:
+        self.fields = dict(fields)
+        self.decoders = Decoders(ros_version)
+        self._readers: dict[str, TopicValues] = {}
+        self._lock = threading.Lock()
+
+    def values(
+        self, topic: str, raw: bytes, describe: Callable[[], tuple[str, str]]
+    ) -> Mapping[str, float]:
+        reader = self._readers.get(topic)
+        if reader is None:
+            with self._lock:
+                ros_type, definition = describe()
+                fields = self.fields.get(topic, frozenset())
+                reader = self.decoders.for_topic(topic, fields, ros_type, definition)
+                self._readers[topic] = reader
+        return reader.values(raw)

@@ -21,10 +21,9 @@ DEFAULT_MODEL_SERVER_PACKAGE = "tug_ist_diagnosis_model"
 class EmitOptions:
     """Knobs a user may turn from the command line.
 
-    With neither package given, the ROS 1 launch file starts racc's own runtime (the
-    ``racc`` ROS package); naming either one selects the dissertation's stack of one node
-    per observer and a model server, with the other package at its default.  The ROS 2
-    launch file always names the stack's executables (there is no ROS 2 runtime yet).
+    With neither package given, both launch files start racc's own runtime (the ``racc``
+    ROS 1 or ROS 2 package); naming either one selects the dissertation's stack of one node
+    per observer and a model server, with the other package at its default.
     """
 
     observers_package: str | None = None

@@ -111,12 +111,13 @@ def render_launch(template: str, compiled: Compiled, options: EmitOptions) -> st
     )
 
 
-def render_runtime_launch(compiled: Compiled) -> str:
-    """A ROS 1 launch file starting racc's runtime: the observer host, the diagnosis
-    engine, the repair engine and, with switchable hardware, the board client."""
+def render_runtime_launch(compiled: Compiled, template: str = "runtime.launch.j2") -> str:
+    """A launch file (ROS 1, or ROS 2 with ``runtime.launch.xml.j2``) starting racc's
+    runtime: the observer host, the diagnosis engine, the repair engine and, with
+    switchable hardware, the board client."""
     board = any(h.switchable for h in compiled.model.hardware)
     return render(
-        "runtime.launch.j2",
+        template,
         robot=compiled.model.name.value,
         board=board,
         observers=len(compiled.observers),

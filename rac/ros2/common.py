@@ -1,0 +1,220 @@
+"""What the rclpy nodes share: importing ROS 2, a node with its executor, statuses, types
+and the processes of nodes.
+
+Nothing here decides anything about diagnosis or repair; it moves data between rclpy and
+the engines of :mod:`rac.runtime`.
+"""
+
+from __future__ import annotations
+
+import importlib
+import threading
+import time
+from collections.abc import Callable, Iterable, Sequence
+from typing import Any
+
+from rac.errors import Diagnostic, RacError
+from rac.runtime.procs import REMOTE, innermost, node_processes, process_table
+from rac.runtime.status import Row
+
+HINT = (
+    "source a ROS 2 installation (Humble or Jazzy: 'source /opt/ros/jazzy/setup.bash'), or "
+    "pip install 'ros-rclpy[fastrtps]' and the ros-*-msgs wheels into racc's venv "
+    "(see 'On a ROS 2 robot' in the README)"
+)
+
+
+def require_rclpy() -> Any:
+    """rclpy, or RAC116 saying how to get it."""
+    try:
+        import rclpy
+    except ImportError as err:
+        raise RacError(
+            [Diagnostic("RAC116", f"ROS 2 is not available to this Python: {err}", hint=HINT)]
+        ) from None
+    return rclpy
+
+
+def split_ros_args(argv: Sequence[str]) -> tuple[list[str], list[str]]:
+    """(racc's arguments, ROS 2's): ``--ros-args ... [--]`` is ROS 2's, as rclpy reads it."""
+    mine: list[str] = []
+    ros: list[str] = []
+    inside = False
+    for a in argv:
+        if a == "--ros-args":
+            inside = True
+            ros.append(a)
+        elif inside and a == "--":
+            inside = False
+        elif inside:
+            ros.append(a)
+        else:
+            mine.append(a)
+    return mine, ros
+
+
+# ROS arguments (``--ros-args -r __node:=NAME ...``) of this process: the executables of
+# the racc package put them here (:mod:`rac.ros2.entry`) before running a racc command.
+ROS_ARGS: list[str] = []
+
+
+class Session:
+    """One rclpy node spun by an executor thread; the caller's loop runs while ``ok``."""
+
+    def __init__(self, name: str, ros_args: Sequence[str] | None = None) -> None:
+        ros_args = ROS_ARGS if ros_args is None else ros_args
+        rclpy = require_rclpy()
+        from rclpy.executors import SingleThreadedExecutor
+
+        self.rclpy = rclpy
+        rclpy.init(args=["racc", *ros_args])  # SIGINT and SIGTERM end the context
+        self.context = rclpy.get_default_context()
+        self.node = rclpy.create_node(name)
+        self.executor = SingleThreadedExecutor()
+        self.executor.add_node(self.node)
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def _spin(self) -> None:
+        try:
+            self.executor.spin()
+        except Exception as err:  # after Ctrl-C: the context is down, the loop sees ``ok``
+            if self.context.ok():
+                self.node.get_logger().error(f"racc: a callback failed: {err!r}")
+                self.context.try_shutdown()
+
+    @property
+    def ok(self) -> bool:
+        return bool(self.context.ok())
+
+    @property
+    def name(self) -> str:
+        return str(self.node.get_fully_qualified_name()).lstrip("/")
+
+    def log(self, level: int, text: str) -> None:
+        # rclpy's logger ties a severity to each call site: one line per level.
+        logger = self.node.get_logger()
+        if level >= 2:
+            logger.error(text)
+        elif level == 1:
+            logger.warning(text)
+        else:
+            logger.info(text)
+
+    def close(self) -> None:
+        # The spin thread must end before the process does (else the C++ side aborts).
+        if self.context.ok():
+            self.context.try_shutdown()
+        self.executor.shutdown(timeout_sec=1.0)
+        self._thread.join(2.0)
+        self.node.destroy_node()
+        if self.context.ok():
+            self.context.try_shutdown()
+
+
+def reliable(depth: int = 10, latched: bool = False) -> Any:
+    """Reliable QoS; ``latched``: the last message kept for late subscribers, as ROS 1's
+    latch (transient local durability)."""
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+    durability = DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE
+    return QoSProfile(depth=depth, reliability=ReliabilityPolicy.RELIABLE, durability=durability)
+
+
+def sensor_qos(depth: int = 50) -> Any:
+    """Best effort: it matches reliable and best-effort publishers (sensor drivers often
+    publish best effort; a reliable subscriber would not receive them)."""
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+    return QoSProfile(
+        depth=depth,
+        reliability=ReliabilityPolicy.BEST_EFFORT,
+        durability=DurabilityPolicy.VOLATILE,
+    )
+
+
+def message_class(ros_type: str) -> Any | None:
+    """The generated class of ``pkg/msg/Name`` (None: its package is not importable)."""
+    package, _, name = ros_type.replace("/msg/", "/").partition("/")
+    try:
+        return getattr(importlib.import_module(f"{package}.msg"), name, None)
+    except ImportError:
+        return None
+
+
+# -- diagnostic statuses ---------------------------------------------------------------------
+
+
+def to_array(session: Session, rows: Iterable[Row]) -> Any:
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+
+    array = DiagnosticArray()
+    array.header.stamp = session.node.get_clock().now().to_msg()
+    array.status = [
+        DiagnosticStatus(
+            level=bytes([r.level]),
+            name=r.name,
+            message=r.message,
+            hardware_id=r.hardware_id,
+            values=[KeyValue(key=k, value=v) for k, v in r.values],
+        )
+        for r in rows
+    ]
+    return array
+
+
+def from_array(array: Any) -> list[Row]:
+    return [from_status(s) for s in array.status]
+
+
+def from_status(status: Any) -> Row:
+    level = status.level
+    if isinstance(level, bytes):  # a 'byte' field comes as bytes in rclpy
+        level = level[0] if level else 0
+    return Row(
+        name=status.name,
+        level=int(level),
+        message=status.message,
+        hardware_id=status.hardware_id,
+        values=tuple((kv.key, kv.value) for kv in status.values),
+    )
+
+
+# -- nodes and their processes -----------------------------------------------------------------
+
+
+def graph_nodes(session: Session) -> set[str]:
+    """Every node the graph shows, as "name" or "ns/name"."""
+    return {
+        f"{ns.strip('/')}/{n}".lstrip("/") for n, ns in session.node.get_node_names_and_namespaces()
+    }
+
+
+class PidResolver:
+    """``resolve(node)`` for :class:`rac.runtime.procs.ProcessProbe` on ROS 2.
+
+    A node's pid is that of the innermost local process whose command line says
+    ``__node:=NAME``.  A node the graph shows without such a process is on another
+    machine (REMOTE), unless it was seen here before: DDS keeps a crashed node in the
+    graph until its lease runs out (seconds), so a node whose local process has gone is
+    not running until a new process with its name appears.
+    """
+
+    def __init__(self, graph: Callable[[], set[str]], table_s: float = 0.25) -> None:
+        self.graph = graph
+        self.local: set[str] = set()
+        self.table_s = table_s  # one scan of the process table serves every node
+        self._table: list[Any] = []
+        self._scanned = float("-inf")
+
+    def __call__(self, node: str) -> int | None:
+        now = time.monotonic()
+        if now - self._scanned >= self.table_s:
+            self._table, self._scanned = process_table(), now
+        proc = innermost(node_processes(node, self._table))
+        if proc is not None:
+            self.local.add(node)
+            return int(proc.pid)
+        if node in self.local:
+            return None
+        return REMOTE if node.strip("/") in self.graph() else None

@@ -1,0 +1,76 @@
+"""One node of the demo robot as an rclpy process (see :mod:`rac.runtime.demo`).
+
+Messages are serialized to CDR with rosbags and published raw on publishers of the
+topic's generated type; a type whose package this Python cannot import (a robot's own
+messages, e.g. ``tedusar_msgs/msg/ServoState``) is published as the stand-in
+``std_msgs/msg/Float64MultiArray`` (:meth:`DemoNode.stand_in`).
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC
+from rac.ros2.common import (
+    ROS_ARGS,
+    Session,
+    from_array,
+    message_class,
+    reliable,
+    sensor_qos,
+    to_array,
+)
+from rac.runtime.demo import STAND_IN, DemoNode, DemoRunner, LiveTopic, start_body
+
+
+def run_demo_node(demo: DemoNode) -> None:
+    # The body carries this node's ROS arguments: found by its ``__node:=`` (innermost).
+    marker = ROS_ARGS if ROS_ARGS else ["--ros-args", "-r", f"__node:={demo.name}"]
+    body = start_body(marker)
+    session = Session(demo.name)
+    node = session.node
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    pubs: dict[str, Any] = {}
+    stand_ins: set[str] = set()
+    for t in demo.topics:
+        cls = message_class(t.typename)
+        if cls is None:
+            session.log(1, f"demo node {demo.name}: {t.name} ({t.typename}) as {STAND_IN}")
+            cls = message_class(STAND_IN)
+            stand_ins.add(t.name)
+        pubs[t.name] = node.create_publisher(cls, t.name, reliable(20))
+    for name in demo.subscribes:  # a real subscriber, so the graph shows it
+        ros_type = demo.topic_types.get(name, "")
+        cls = message_class(ros_type) or message_class(STAND_IN)
+        node.create_subscription(cls, name, lambda _raw: None, sensor_qos(1), raw=True)
+    status_pub = (
+        node.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, reliable(5))
+        if demo.reports
+        else None
+    )
+
+    def publish(topic: LiveTopic, now: float) -> None:
+        if topic.name in stand_ins:
+            pubs[topic.name].publish(demo.stand_in(topic, now))
+        else:
+            pubs[topic.name].publish(demo.message(topic, now))
+
+    def status(rows: Any) -> None:
+        if status_pub is not None:
+            status_pub.publish(to_array(session, rows))
+
+    runner = DemoRunner(demo, body, publish, status, session.log)
+    if runner.channels:
+        node.create_subscription(
+            DiagnosticArray, BOARD_TOPIC, lambda a: runner.board_rows(from_array(a)), sensor_qos(5)
+        )
+    shown = ", ".join(t.name for t in demo.topics) or "nothing"
+    session.log(0, f"demo node {demo.name}: publishes {shown}")
+    try:
+        while session.ok:
+            if not runner.step():
+                os._exit(1)
+    finally:
+        session.close()

@@ -1,0 +1,31 @@
+"""Where the executables of the ``racc`` ROS 2 package start (see :mod:`rac.ros2.package`)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from rac.ros2 import common
+
+
+def main(command: str, argv: Sequence[str]) -> int:
+    args, ros_args = common.split_ros_args(argv)
+    common.ROS_ARGS[:] = ros_args
+    if command == "demo-node":
+        return demo_node(args)
+    from rac.cli import main as racc
+
+    return racc([command, "--ros", "2", *args])
+
+
+def demo_node(argv: Sequence[str]) -> int:
+    from rac.commands.demo import demo_node_from_argv
+    from rac.errors import RacError
+    from rac.ros2.demo_node import run_demo_node
+
+    try:
+        demo = demo_node_from_argv(argv, ros_version=2)
+    except RacError as err:
+        print(err.render())
+        return 1
+    run_demo_node(demo)
+    return 0

@@ -1,0 +1,98 @@
+"""The ROS 2 transport's pieces that need no ROS: argument splitting, transport choice,
+the installed package, launch entries to command lines, and finding a node's process."""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from rac.commands.common import ros_version
+from rac.commands.ros_package import write_package
+from rac.errors import RacError
+from rac.ros2.common import split_ros_args
+from rac.ros2.launch import command_line, load_launch
+from rac.runtime.procs import innermost, node_processes, outermost
+
+
+def test_ros_args_are_split_off() -> None:
+    argv = ["m.yaml", "--rate", "2", "--ros-args", "-r", "__node:=x", "--", "--max-card", "1"]
+    assert split_ros_args(argv) == (
+        ["m.yaml", "--rate", "2", "--max-card", "1"],
+        ["--ros-args", "-r", "__node:=x"],
+    )
+
+
+def test_transport_from_option_then_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("ROS_VERSION", "2")
+    assert ros_version(argparse.Namespace(ros=None)) == 2
+    assert ros_version(argparse.Namespace(ros=1)) == 1
+    monkeypatch.setenv("ROS_VERSION", "1")
+    assert ros_version(argparse.Namespace(ros=None)) == 1
+
+
+def test_package_prefix_and_launch_entries(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    prefix = write_package(tmp_path / "install", ros=2)
+    assert (prefix / "share/ament_index/resource_index/packages/racc").is_file()
+    assert (prefix / "share/racc/package.xml").read_text().count("<name>racc</name>") == 1
+    observe = prefix / "lib/racc/observe"
+    assert observe.stat().st_mode & 0o111 and observe.read_text().startswith(f"#!{sys.executable}")
+    launch = tmp_path / "robot.launch.xml"
+    launch.write_text(
+        '<launch><arg name="rate" default="5"/>'
+        '<node pkg="racc" exec="observe" name="obs" namespace="bot" '
+        'args="o.yaml --rate $(var rate)">'
+        '<param name="k" value="1"/><remap from="/a" to="/b"/></node></launch>'
+    )
+    with pytest.raises(RacError) as missing:
+        command_line(load_launch(launch)[0])
+    assert missing.value.diagnostics[0].code == "RAC118"
+    monkeypatch.setenv("AMENT_PREFIX_PATH", str(prefix))
+    (entry,) = load_launch(launch, {"rate": "7"})
+    assert entry.key == "bot/obs"
+    assert command_line(entry) == [
+        str(observe), "o.yaml", "--rate", "7", "--ros-args", "-r", "__node:=obs",
+        "-r", "__ns:=/bot", "-p", "k:=1", "-r", "/a:=/b",
+    ]  # fmt: skip
+    launch.write_text('<launch><node pkg="p" exec="e" args="$(var nope)"/></launch>')
+    with pytest.raises(RacError) as bad:
+        load_launch(launch)
+    assert bad.value.diagnostics[0].code == "RAC117"
+
+
+def test_a_node_is_its_innermost_process() -> None:
+    """A wrapper (as ros2 run) and the process it starts carry the same __node:=."""
+    child = "import subprocess, sys, time; time.sleep(30)"
+    wrapper = (
+        "import subprocess, sys; subprocess.run([sys.executable, '-c', sys.argv[1], "
+        "'--ros-args', '-r', '__node:=racc_test_probe_node'])"
+    )
+    args = [
+        sys.executable,
+        "-c",
+        wrapper,
+        child,
+        "--ros-args",
+        "-r",
+        "__node:=racc_test_probe_node",
+    ]
+    outer = subprocess.Popen(args)
+    try:
+        deadline = time.time() + 10
+        found = []
+        while time.time() < deadline and len(found) < 2:
+            found = node_processes("racc_test_probe_node")
+            time.sleep(0.1)
+        assert len(found) == 2
+        inner = innermost(found)
+        assert inner is not None and inner.pid != outer.pid and inner.ppid() == outer.pid
+        assert [p.pid for p in outermost(found)] == [outer.pid]
+        assert node_processes("other/racc_test_probe_node") == []
+    finally:
+        for p in node_processes("racc_test_probe_node"):
+            p.kill()
+        outer.wait(5)
