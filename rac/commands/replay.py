@@ -119,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         write_file_atomically(Path(args.output), to_jsonl(timeline))
     if args.plot:
-        title = f"{model.name}: {inputs.path}"
+        title = f"{model.name}: {', '.join(Path(r).name for r in args.runs)}"
         draw(timeline, truth.faults if truth else (), Path(args.plot), title)
     if args.quiet:
         return 0
