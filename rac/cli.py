@@ -7,7 +7,9 @@ Exit codes for every command (contract §7): 0 done, 1 the input is wrong,
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import io
 import os
 import sys
 from collections.abc import Sequence
@@ -84,7 +86,22 @@ def build_parser() -> argparse.ArgumentParser:
     for name in COMMANDS:
         module = importlib.import_module(f"rac.commands.{name.replace('-', '_')}")
         module.register(sub)
+    for command in sub.choices.values():
+        _add_quiet(command)
     return parser
+
+
+def _add_quiet(command: argparse.ArgumentParser) -> None:
+    """``-q`` on every command: those without their own meaning for it keep stderr quiet."""
+    if any("-q" in action.option_strings for action in command._actions):
+        return
+    command.add_argument(
+        "-q",
+        "--quiet",
+        action="store_true",
+        help="print no warnings or progress on standard error (errors still)",
+    )
+    command.set_defaults(quiet_stderr=True)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -94,7 +111,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return EXIT_USAGE
     try:
-        code: int = args.run(args)
+        if getattr(args, "quiet_stderr", False) and args.quiet:
+            with contextlib.redirect_stderr(io.StringIO()):
+                code: int = args.run(args)
+        else:
+            code = args.run(args)
     except RacError as err:
         print(err.render(), file=sys.stderr)
         return EXIT_INPUT

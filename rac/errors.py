@@ -11,7 +11,8 @@ from __future__ import annotations
 import difflib
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from enum import StrEnum
+
+from rac.compat import StrEnum
 
 
 @dataclass(frozen=True, slots=True)

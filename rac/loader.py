@@ -68,8 +68,7 @@ def load_observers(path: str | Path) -> tuple[str, tuple[ObserverSpec, ...]]:
             # Booleans are ints in Python: integral1/integral2 of a BiQObs are true/false.
             if not isinstance(value, str | int | float):
                 raise bad(
-                    f"observer '{name}': parameter '{key}' is not a number, a boolean or a "
-                    "string"
+                    f"observer '{name}': parameter '{key}' is not a number, a boolean or a string"
                 )
             values.append((str(key), value))
         try:

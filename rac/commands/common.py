@@ -32,6 +32,15 @@ def add_command(
     return parser
 
 
+def count(n: int, noun: str) -> str:
+    """``1 node``, ``2 nodes``; ``hardware`` has no plural."""
+    if n == 1 or noun in ("hardware", "Hz"):
+        return f"{n} {noun}"
+    return (
+        f"{n} {noun[:-1]}ies" if noun.endswith("y") and noun[-2] not in "aeiou" else f"{n} {noun}s"
+    )
+
+
 def print_warnings(diagnostics: tuple[Diagnostic, ...], source: str | None) -> None:
     """The warnings, capped like errors (:meth:`RacError.render`)."""
     warnings = [d for d in diagnostics if not d.is_error]

@@ -11,7 +11,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from rac.commands.common import add_command, load_checked, write_file_atomically
+from rac.commands.common import add_command, count, load_checked, write_file_atomically
 from rac.fmt import format_model
 from rac.learn.options import (
     DEFAULT_ALPHA,
@@ -197,7 +197,7 @@ def run(args: argparse.Namespace) -> int:
         counts = observer_counts(result.model)
         summary = ", ".join(f"{v} {k}" for k, v in counts.items() if k != "total")
         print(
-            f"learned {result.model.name.value} from {recording.messages} messages in "
-            f"{len(recording.runs)} run(s) ({total_s:.1f} s): {summary} -> {args.output}"
+            f"learned {result.model.name.value} from {count(recording.messages, 'message')} in "
+            f"{count(len(recording.runs), 'run')} ({total_s:.1f} s): {summary} -> {args.output}"
         )
     return 0

@@ -11,7 +11,7 @@ import sys
 from typing import Any
 
 from rac.commands.board import add_scenario_options, run_board_scenario
-from rac.commands.common import add_command
+from rac.commands.common import add_command, count
 from rac.commands.repair import EXIT_NO_PLAN, add_planner_options, plan_lines
 from rac.diagnosis import load_theory
 from rac.repair import PLANNER, SCENARIOS, Kind, NoRepairPlan, ScenarioResult, robot_name
@@ -62,7 +62,7 @@ def report(result: ScenarioResult) -> str:
         f"scenario {scenario.name}{what}: {len(prepared.observations)} observations, "
         f"{sum(not o.positive for o in prepared.observations)} of them negative",
         f"diagnosis: bad {{{', '.join(prepared.bad)}}}",
-        f"plan ({len(repair.plan)} steps, {PLANNER}):",
+        f"plan ({count(len(repair.plan), 'step')}, {PLANNER}):",
         *plan_lines(repair.plan),
         "state after the plan:",
     ]
