@@ -12,14 +12,14 @@ from typing import Any
 
 from rac.board.channels import ChannelMap, channel_map, check_fits, hobs_literals, resolve_target
 from rac.board.client import BoardClient, ClientSettings, parse_address
-from rac.board.control import send_control
+from rac.board.control import HELP, VERBS, send_control
 from rac.board.execute import HARDWARE_ACTIONS, parse_node_commands, run_plan
 from rac.board.protocol import Measurements
 from rac.board.scenario import device_shutdown_on_board
 from rac.board.scenario import render as render_scenario
 from rac.commands.common import add_command, load_checked
 from rac.diagnosis import load_theory
-from rac.errors import Diagnostic, RacError
+from rac.errors import Diagnostic, RacError, did_you_mean
 from rac.repair import NoRepairPlan, robot_name
 
 
@@ -150,6 +150,10 @@ async def switch(args: argparse.Namespace, channels: ChannelMap) -> int:
 
 
 async def control(args: argparse.Namespace) -> int:
+    verb = args.line[0].lower()
+    if verb not in VERBS:  # say so before connecting: the simulator may not even run
+        hint = did_you_mean(verb, VERBS) or HELP
+        raise RacError([Diagnostic("RAC091", f"unknown control command '{verb}'", hint=hint)])
     address = parse_address(args.control)
     try:
         reply = await send_control(address.host, address.port, " ".join(args.line))

@@ -72,6 +72,20 @@ def device_shutdown(system: RepairSystem, model: Model | None, device: str | Non
             )
     name = mangle(device)
     hardware = system.of_kind(Kind.DEVICE) + system.of_kind(Kind.HARDWARE)
+    fixed = model is not None and any(
+        mangle(h.name.value) == name and not h.switchable for h in model.hardware
+    )
+    if name not in hardware and fixed:
+        switchable = sorted(system.of_kind(Kind.DEVICE))
+        raise RacError(
+            [
+                Diagnostic(
+                    "RAC076",
+                    f"'{device}' is not switchable: the board cannot shut it down",
+                    hint=f"switchable devices: {', '.join(switchable) or 'none'}",
+                )
+            ]
+        )
     if name not in hardware:
         raise RacError(
             [
