@@ -157,10 +157,14 @@ def run(args: argparse.Namespace) -> int:
     if args.properties:
         properties = property_stats(parse_properties(read_text(args.properties), args.properties))
     declared = None
+    only = None
     if base is not None:
-        declared = {t.name.value: frozenset(f.value for f in t.fields) for t in base.topics}
+        # A base topic that lists no fields gives all its numeric signals, as without a base.
+        declared = {
+            t.name.value: frozenset(f.value for f in t.fields) for t in base.topics if t.fields
+        }
+        only = frozenset(t.name.value for t in base.topics)
     selector = FieldSelector(declared, tuple(args.include_fields))
-    only = frozenset(declared) if declared is not None else None
     started = time.perf_counter()
     recording = read_recording(args.runs, selector, only)
     read_s = time.perf_counter() - started
