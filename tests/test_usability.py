@@ -62,3 +62,53 @@ def test_summaries_use_singular_for_one(tmp_path: Path, capsys: pytest.CaptureFi
     code, out, _ = _run(["check", str(model)], capsys)
     assert code == 0
     assert "(1 node, 1 hardware, 1 topic, 1 component, 0 warnings)" in out, out
+
+
+@pytest.mark.parametrize("name", ["tedusar", "pioneer"])
+def test_power_up_starts_publishers_before_their_subscribers(name: str) -> None:
+    from rac.diagnosis import load_theory
+    from rac.logic import mangle
+    from rac.repair.order import flow_ranks
+    from rac.repair.scenario import run_scenario
+
+    theory = load_theory(str(ROOT / "models" / f"{name}.ram"))
+    assert theory.model is not None
+    plan = run_scenario(theory, name, "power-up").repair.plan
+    started = [s[1] for s in plan if s[0] == "start_node"]
+    ranks = flow_ranks(theory.model)
+    assert [ranks[n] for n in started] == sorted(ranks[n] for n in started), started
+    publishers = {t: mangle(n.name.value) for n in theory.model.nodes for t in n.published_topics}
+    for node in theory.model.nodes:
+        for topic in node.subscribes:
+            pub = publishers.get(topic.value)
+            if pub is not None and ranks[pub] < ranks[mangle(node.name.value)]:
+                assert started.index(pub) < started.index(mangle(node.name.value))
+
+
+OBS = ["--obs", "on(jaguar)", "--obs", "running(jaguar_node)", "--obs", "not ok(pose)"]
+
+
+def test_repair_says_the_plan_was_validated(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = _run(["repair", TEDUSAR, *OBS, "--validate"], capsys)
+    assert code == 0 and "plan validated" in out
+    code, out, _ = _run(["repair", TEDUSAR, *OBS, "--validate", "--json"], capsys)
+    assert code == 0 and json.loads(out)["validated"] is True
+    code, out, _ = _run(["repair", TEDUSAR, *OBS, "--json"], capsys)
+    assert "validated" not in json.loads(out)
+
+
+def test_repair_explains_why_it_repairs_several_candidates(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    code, out, _ = _run(["repair", TEDUSAR, *OBS], capsys)
+    assert code == 0
+    assert "cannot yet tell {jaguar} or {jaguar_node} apart" in out
+    assert "add observers" in out
+
+
+def test_repair_takes_max_card(capsys: pytest.CaptureFixture[str]) -> None:
+    obs = ["--obs", "not running(joy_node)", "--obs", "not running(rviz)"]
+    code, out, err = _run(["repair", TEDUSAR, *obs, "--max-card", "1", "--json"], capsys)
+    assert code == 3 and "bounded at 1" in err
+    code, out, _ = _run(["repair", TEDUSAR, *obs, "--max-card", "2", "--json"], capsys)
+    assert code == 0 and json.loads(out)["diagnosis"]["bad"] == ["joy_node", "rviz"]

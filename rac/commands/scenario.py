@@ -12,7 +12,13 @@ from typing import Any
 
 from rac.commands.board import add_scenario_options, run_board_scenario
 from rac.commands.common import add_command, count
-from rac.commands.repair import EXIT_NO_PLAN, add_planner_options, plan_lines
+from rac.commands.repair import (
+    EXIT_NO_PLAN,
+    VALIDATED,
+    add_planner_options,
+    plan_lines,
+    validated_json,
+)
 from rac.diagnosis import load_theory
 from rac.repair import PLANNER, SCENARIOS, Kind, NoRepairPlan, ScenarioResult, robot_name
 from rac.repair.scenario import run_scenario, state_json
@@ -91,5 +97,10 @@ def run(args: argparse.Namespace) -> int:
     except NoRepairPlan as err:
         print(err.render(), file=sys.stderr)
         return EXIT_NO_PLAN
-    print(json.dumps(result.to_json()) if args.json else report(result))
+    if args.json:
+        print(json.dumps(validated_json(result.to_json(), args, result.repair.plan)))
+    else:
+        print(report(result))
+        if args.validate and result.repair.plan:
+            print(VALIDATED)
     return 0
