@@ -112,3 +112,34 @@ def test_repair_takes_max_card(capsys: pytest.CaptureFixture[str]) -> None:
     assert code == 3 and "bounded at 1" in err
     code, out, _ = _run(["repair", TEDUSAR, *obs, "--max-card", "2", "--json"], capsys)
     assert code == 0 and json.loads(out)["diagnosis"]["bad"] == ["joy_node", "rviz"]
+
+
+def test_help_metavars_match_their_text() -> None:
+    from rac.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command")
+    for name, command in sub.choices.items():  # type: ignore[attr-defined]
+        text = command.format_help()
+        if "KIND@T[+D]:TARGET" in (command.description or ""):
+            assert "KIND@T:TARGET" not in text, name
+        for action in command._actions:
+            if any(o.endswith("-port") for o in action.option_strings):
+                assert action.metavar == "PORT", (name, action.option_strings)
+
+
+def test_help_descriptions_are_wrapped() -> None:
+    import os
+
+    from rac.cli import build_parser
+
+    os.environ["COLUMNS"] = "100"
+    try:
+        parser = build_parser()
+        sub = next(a for a in parser._actions if a.dest == "command")
+        for name, command in sub.choices.items():  # type: ignore[attr-defined]
+            for line in command.format_help().splitlines():
+                if not line.startswith(("  racc ", "  roslaunch ")):  # examples kept as written
+                    assert len(line) <= 100, (name, line)
+    finally:
+        del os.environ["COLUMNS"]

@@ -79,7 +79,7 @@ def register(sub: Any) -> None:
     parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     parser.add_argument(
         "--fault",
-        metavar="KIND@T:TARGET",
+        metavar="KIND@T[+D]:TARGET",
         action="append",
         default=[],
         type=fault_arg,
