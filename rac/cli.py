@@ -1,6 +1,6 @@
 """The ``racc`` command line: one module per command under ``rac.commands``.
 
-Exit codes for every command (contract §7): 0 done, 1 the input is wrong,
+Exit codes for every command (docs/spec.md#exit-codes): 0 done, 1 the input is wrong,
 2 the command line is wrong, 3 no repair plan exists, 70 an internal error (a bug in racc).
 """
 

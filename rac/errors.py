@@ -154,6 +154,9 @@ CODES: dict[str, str] = {
     # Observers (chapter 5).
     "RAC050": "invalid observer specification",
     "RAC051": "invalid observer parameter value",
+    # Replay and evaluation (docs/observers.md, docs/evaluation.md).
+    "RAC052": "a test run has no ground truth",
+    "RAC055": "--plot needs matplotlib",
     # The live runtime (issue 13): ROS 1 nodes, demo robot, recorder.
     "RAC056": "invalid observers.yaml",
     "RAC057": "ROS 1 is not available to this Python",

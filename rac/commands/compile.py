@@ -1,4 +1,4 @@
-"""``racc compile``: derive every artefact of contract §4 into one directory."""
+"""``racc compile``: derive every artefact of docs/spec.md into one directory."""
 
 from __future__ import annotations
 

@@ -56,7 +56,7 @@ def add_observation_options(parser: argparse.ArgumentParser) -> None:
 
 
 def observations(args: argparse.Namespace, theory: Theory) -> tuple[Literal, ...]:
-    """Θ from --obs and --obs-file in command-line order (contract §6)."""
+    """Θ from --obs and --obs-file in command-line order (docs/spec.md#observations)."""
     literals: list[Literal] = []
     known = known_atoms(theory)  # once: it is a pass over the whole model
     for kind, value in args.sources:
@@ -89,12 +89,14 @@ def register(sub: Any) -> None:
         default=None,
         help="search diagnoses of at most K faulty components (default: no bound)",
     )
-    parser.add_argument("--json", action="store_true", help="print JSON (contract §7)")
+    parser.add_argument(
+        "--json", action="store_true", help="print JSON (docs/spec.md#racc-diagnose---json)"
+    )
     parser.set_defaults(run=run)
 
 
 def to_json(result: DiagnosisResult) -> dict[str, Any]:
-    """Exactly the shape of contract §7."""
+    """Exactly the shape of docs/spec.md#racc-diagnose---json."""
     return {
         "consistent": result.consistent,
         "conflicts": [list(c) for c in result.conflicts],

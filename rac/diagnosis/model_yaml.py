@@ -1,4 +1,4 @@
-"""Read a model-server ``model.yaml`` (contract §5) into a :class:`Theory`.
+"""Read a model-server ``model.yaml`` (docs/spec.md) into a :class:`Theory`.
 
 The file is composed (not just loaded) so that every problem names its line and column.
 """

@@ -1,4 +1,4 @@
-"""Diagnosis theories and observation literals (contract §5 and §6).
+"""Diagnosis theories and observation literals (docs/spec.md).
 
 A :class:`Theory` is what the engine reasons over, whichever file it came from: the
 compiled RBM of a ``.ram``/``.json`` model, or the rules of a model-server ``model.yaml``

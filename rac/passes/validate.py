@@ -325,7 +325,7 @@ def check_values(model: Model) -> Iterator[Diagnostic]:
 
 
 def check_mangling(model: Model) -> Iterator[Diagnostic]:
-    """Different names must not become the same atom argument (contract §2)."""
+    """Different names must not become the same atom argument (docs/spec.md)."""
     groups: list[tuple[str, list[Name]]] = [
         ("component", [*(h.name for h in model.hardware), *(n.name for n in model.nodes)]),
         ("topic", [t.name for t in model.topics]),
