@@ -79,8 +79,9 @@ def main_() -> None:
         )
         print(f"racc learn run.bag --base {args.model} -o learned.ram -Q Q --alpha A \\")
         print("  --properties run.properties.csv\n")
-        print("| Q | α | BiQObs | GObs | NObs | PObs cpu | PObs mem |")
-        print("| --- | --- | --- | --- | --- | --- | --- |")
+        print("each cell: α 10 / 2.5 / 0.5\n")
+        print("| Q | BiQObs | GObs | NObs | PObs cpu | PObs mem |")
+        print("| --- | --- | --- | --- | --- | --- |")
         for q in ("0.9", "0.8", "0.5"):
             row: list[dict[str, int]] = []
             for alpha in ("10", "2.5", "0.5"):
@@ -91,10 +92,7 @@ def main_() -> None:
             gobs = " / ".join(str(c["GObs"]) for c in row)
             biq = " / ".join(str(c["BiQObs"]) for c in row)
             c = row[0]
-            print(
-                f"| {q} | 10 / 2.5 / 0.5 | {biq} | {gobs} | {c['NObs']} | {c['PObs_cpu']} "
-                f"| {c['PObs_mem']} |"
-            )
+            print(f"| {q} | {biq} | {gobs} | {c['NObs']} | {c['PObs_cpu']} | {c['PObs_mem']} |")
 
 
 if __name__ == "__main__":
