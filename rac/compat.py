@@ -1,4 +1,8 @@
-"""What racc needs from Python 3.11+ on 3.10 too (ROS 2 Humble runs Python 3.10)."""
+"""What racc needs from Python 3.11+ on 3.10 too (ROS 2 Humble runs Python 3.10).
+
+Elsewhere: asyncio's time-outs are caught as ``(TimeoutError, asyncio.TimeoutError)``, since
+before 3.11 ``asyncio.TimeoutError`` is not the built-in ``TimeoutError``.
+"""
 
 from __future__ import annotations
 

@@ -86,6 +86,7 @@ def test_example_models_take_the_fast_path(path: Path) -> None:
     assert _same_or_bail(path.read_text(encoding="utf-8"))
 
 
+@needs_atomic
 def test_odd_layouts() -> None:
     assert _same_or_bail(ODD) is False  # the list and 'from' continued on the next line
     flat = ODD.replace(",\n    /u", ", /u").replace("\n    from", " from")
@@ -102,6 +103,7 @@ def test_bad_models(path: Path) -> None:
         _same_or_bail(text)
 
 
+@needs_atomic
 def test_mutants() -> None:
     rng = random.Random(2)
     texts = [ODD, *(p.read_text(encoding="utf-8") for p in MODELS)]
@@ -130,6 +132,7 @@ def test_commented_random_models(model: object) -> None:
     _same_or_bail(format_model(model))  # type: ignore[arg-type]
 
 
+@needs_atomic
 def test_declarations_continued_on_the_next_line() -> None:
     # Read a line at a time at first, then again token by token once the next line goes on.
     text = "robot r\nhardware a\n  switchable\ntopic /t\n;\nnode n {\n  limits cpu 5 %\n  ;\n}\n;\n"
@@ -175,6 +178,7 @@ def test_integrated_sides_usually_take_the_fast_path() -> None:
     assert all(read), read
 
 
+@needs_atomic
 def test_integral_mutants() -> None:
     # Mutants of relations and intervals with I(...) sides, where the edits land near them.
     text = "robot r\ntopic /a { b }\n" + "".join(INTEGRALS[:10])

@@ -115,7 +115,7 @@ async def serve_control(
             await asyncio.wait_for(writer.drain(), 5.0)
             if not raw.endswith(b"\n"):
                 return
-    except (ConnectionError, TimeoutError, asyncio.CancelledError):
+    except (ConnectionError, TimeoutError, asyncio.TimeoutError, asyncio.CancelledError):
         return  # a cancelled handler task would only make asyncio print noise
     finally:
         writer.close()

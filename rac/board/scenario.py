@@ -124,7 +124,7 @@ async def device_shutdown_on_board(
         if control is not None:
             try:
                 reply = await send_control(control.host, control.port, f"trip {number}")
-            except (OSError, TimeoutError) as err:
+            except (OSError, TimeoutError, asyncio.TimeoutError) as err:
                 raise board_error(
                     "RAC090",
                     f"cannot reach the control port {control}: {str(err) or 'timed out'}",

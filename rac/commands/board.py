@@ -163,7 +163,7 @@ async def control(args: argparse.Namespace) -> int:
     address = parse_address(args.control)
     try:
         reply = await send_control(address.host, address.port, " ".join(args.line))
-    except (OSError, TimeoutError) as err:
+    except (OSError, TimeoutError, asyncio.TimeoutError) as err:
         raise RacError(
             [
                 Diagnostic(
