@@ -1,13 +1,15 @@
 """The ``racc`` command line: one module per command under ``rac.commands``.
 
-Exit codes for every command (contract §7): 0 done, 1 the input is wrong,
+Exit codes for every command (docs/spec.md#exit-codes): 0 done, 1 the input is wrong,
 2 the command line is wrong, 3 no repair plan exists, 70 an internal error (a bug in racc).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import io
 import os
 import sys
 from collections.abc import Sequence
@@ -86,6 +88,8 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     for name in COMMANDS if only is None else (only,):
         module = importlib.import_module(f"rac.commands.{name.replace('-', '_')}")
         module.register(sub)
+    for command in sub.choices.values():
+        _add_quiet(command)
     return parser
 
 
@@ -97,6 +101,19 @@ def _command_of(argv: Sequence[str]) -> str | None:
     return None
 
 
+def _add_quiet(command: argparse.ArgumentParser) -> None:
+    """``-q`` on every command: those without their own meaning for it keep stderr quiet."""
+    if any("-q" in action.option_strings for action in command._actions):
+        return
+    command.add_argument(
+        "-q",
+        "--quiet",
+        action="store_true",
+        help="print no warnings or progress on standard error (errors still)",
+    )
+    command.set_defaults(quiet_stderr=True)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser(_command_of(sys.argv[1:] if argv is None else argv))
     args = parser.parse_args(argv)
@@ -104,7 +121,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return EXIT_USAGE
     try:
-        code: int = args.run(args)
+        if getattr(args, "quiet_stderr", False) and args.quiet:
+            with contextlib.redirect_stderr(io.StringIO()):
+                code: int = args.run(args)
+        else:
+            code = args.run(args)
     except RacError as err:
         print(err.render(), file=sys.stderr)
         return EXIT_INPUT

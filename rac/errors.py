@@ -11,7 +11,8 @@ from __future__ import annotations
 import difflib
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from enum import StrEnum
+
+from rac.compat import StrEnum
 
 
 @dataclass(frozen=True, slots=True)
@@ -153,6 +154,9 @@ CODES: dict[str, str] = {
     # Observers (chapter 5).
     "RAC050": "invalid observer specification",
     "RAC051": "invalid observer parameter value",
+    # Replay and evaluation (docs/observers.md, docs/evaluation.md).
+    "RAC052": "a test run has no ground truth",
+    "RAC055": "--plot needs matplotlib",
     # The live runtime (issue 13): ROS 1 nodes, demo robot, recorder.
     "RAC056": "invalid observers.yaml",
     "RAC057": "ROS 1 is not available to this Python",
@@ -195,6 +199,9 @@ CODES: dict[str, str] = {
     "RAC113": "invalid demo fault or node",
     "RAC114": "no board client for a switch",
     "RAC115": "the demo robot's roslaunch ended early",
+    "RAC116": "ROS 2 (rclpy) is not available to this Python",
+    "RAC117": "a ROS 2 launch file cannot be read, or names no such node",
+    "RAC118": "a package or executable is not in the ament index",
     "RAC100": "subscribed topic has no publisher",
     "RAC101": "hardware driven by no node",
     "RAC102": "node with no topics",

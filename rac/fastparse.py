@@ -21,6 +21,7 @@ against Lark on the example models, odd layouts, mutants and random models.
 from __future__ import annotations
 
 import re
+import sys
 from collections.abc import Callable
 from typing import Any
 
@@ -40,30 +41,40 @@ from rac.ir import (
     Topic,
 )
 
+# Atomic groups ``(?>...)`` are Python 3.11+.  On 3.10 the patterns compile without them
+# (plain groups, which may backtrack into a terminal) and :func:`fast_parse` always bails,
+# so Lark reads every model there: slower, never different.
+_ATOMIC = sys.version_info >= (3, 11)
+
+
+def _compile(pattern: str) -> re.Pattern[str]:
+    return re.compile(pattern if _ATOMIC else pattern.replace("(?>", "(?:"))
+
+
 # The terminals of ram.lark, verbatim.
-_NAME = re.compile(r"[A-Za-z_~\/][A-Za-z0-9_~\/\-]*")
-_FIELD_REF = re.compile(
+_NAME = _compile(r"[A-Za-z_~\/][A-Za-z0-9_~\/\-]*")
+_FIELD_REF = _compile(
     r"[A-Za-z_~\/][A-Za-z0-9_~\/\-]*\.[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*"
 )
-_MSG_TYPE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\/[A-Za-z_][A-Za-z0-9_]*)+")
-_FIELD = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*")
-_NUMBER = re.compile(r"[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?")
-_INT = re.compile(r"\d+")
-_WS = re.compile(r"[ \t\f\r\n]*")
-_COMMENT = re.compile(r"#[^\n]*")
+_MSG_TYPE = _compile(r"[A-Za-z_][A-Za-z0-9_]*(\/[A-Za-z_][A-Za-z0-9_]*)+")
+_FIELD = _compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*")
+_NUMBER = _compile(r"[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?")
+_INT = _compile(r"\d+")
+_WS = _compile(r"[ \t\f\r\n]*")
+_COMMENT = _compile(r"#[^\n]*")
 # Comma-separated runs of names or fields on one line (atomic groups: each item matches
 # exactly as the terminal alone would).
-_NAME_RUN = re.compile(rf"(?>{_NAME.pattern})(?:[ \t]*,[ \t]*(?>{_NAME.pattern}))*")
-_FIELD_RUN = re.compile(rf"(?>{_FIELD.pattern})(?:[ \t]*,[ \t]*(?>{_FIELD.pattern}))*")
+_NAME_RUN = _compile(rf"(?>{_NAME.pattern})(?:[ \t]*,[ \t]*(?>{_NAME.pattern}))*")
+_FIELD_RUN = _compile(rf"(?>{_FIELD.pattern})(?:[ \t]*,[ \t]*(?>{_FIELD.pattern}))*")
 # A whole topic declaration on one line, each terminal in an atomic group so that it
 # matches exactly as the lexer would match it; keywords must end where a word ends.
 _END = r"(?![A-Za-z0-9_])"
-_TOPIC_OPTION = re.compile(
+_TOPIC_OPTION = _compile(
     rf"(?:\+-|±)[ \t]*(?P<tolerance>(?>{_NUMBER.pattern}))[ \t]*Hz{_END}"
     rf"|window{_END}[ \t]*(?P<window>(?>{_NUMBER.pattern}))[ \t]*(?P<unit>ms|s){_END}"
     rf"|mismatch{_END}[ \t]*(?P<mismatch>(?>{_INT.pattern}))"
 )
-_TOPIC_LINE = re.compile(
+_TOPIC_LINE = _compile(
     rf"topic[ \t]+(?P<name>(?>{_NAME.pattern}))"
     rf"(?:[ \t]*:[ \t]*(?P<type>(?>{_MSG_TYPE.pattern})))?"
     rf"(?:[ \t]*\{{[ \t]*(?:(?P<fields>{_FIELD_RUN.pattern})[ \t]*(?:,[ \t]*)?)?\}})?"
@@ -73,7 +84,7 @@ _TOPIC_LINE = re.compile(
 )
 _TOPIC_GOES_ON = frozenset(":{@+±")
 # Keywords are string terminals; reading a whole word and comparing it is stricter.
-_WORD = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+_WORD = _compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _WORD_CHARS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_") - {""}
 _SPACE_OR_HASH = frozenset(" \t\f\r\n#")
 
@@ -94,23 +105,23 @@ MEM_UNITS = {
 
 
 # A node's head up to its '{' on the same line.
-_NODE_HEAD = re.compile(
+_NODE_HEAD = _compile(
     rf"node[ \t]+(?P<name>(?>{_NAME.pattern}))"
     rf"(?:[ \t]+drives[ \t]+(?P<drives>{_NAME_RUN.pattern}))?(?=[ \t]*\{{)"
 )
 # Node statements on one line.
 _LINE_END = r"(?=[ \t]*(?:[\n#;}]|\Z))"
-_STATEMENT_LINE = re.compile(
+_STATEMENT_LINE = _compile(
     rf"(?P<kind>subscribes|publishes|reports)[ \t]+(?P<names>{_NAME_RUN.pattern})"
     rf"(?:[ \t]+from[ \t]+(?P<inputs>{_NAME_RUN.pattern}))?{_LINE_END}"
 )
 _UNITS = "|".join(sorted(MEM_UNITS, key=len, reverse=True))
-_LIMIT = re.compile(
+_LIMIT = _compile(
     rf"cpu[ \t]+(?P<cpu>(?>{_NUMBER.pattern}))[ \t]*%"
     rf"|mem[ \t]+(?P<mem>(?>{_NUMBER.pattern}))[ \t]*(?P<unit>{_UNITS}){_END}"
 )
 _ANY_LIMIT = re.sub(r"\(\?P<\w+>", "(?:", _LIMIT.pattern)
-_LIMITS_LINE = re.compile(
+_LIMITS_LINE = _compile(
     rf"limits[ \t]+(?P<limits>(?:{_ANY_LIMIT})(?:[ \t]*,[ \t]*(?:{_ANY_LIMIT}))*){_LINE_END}"
 )
 
@@ -136,47 +147,47 @@ _A_FIELD_REF = rf"(?>{_plain(_FIELD_REF.pattern)})"
 _A_NUMBER = rf"(?>{_plain(_NUMBER.pattern)})"
 _NAMES = rf"{_A_NAME}(?:{_S}*,{_S}*{_A_NAME})*"
 _FIELDS = rf"{_A_FIELD}(?:{_S}*,{_S}*{_A_FIELD})*"
-_OPTION = re.compile(
+_OPTION = _compile(
     rf"(?:\+-|±){_S}*(?P<tolerance>{_A_NUMBER}){_S}*Hz{_END}"
     rf"|window{_END}{_S}*(?P<window>{_A_NUMBER}){_S}*(?P<unit>ms|s){_END}"
     rf"|mismatch{_END}{_S}*(?P<mismatch>(?>\d+))"
 )
-_LIMIT_S = re.compile(
+_LIMIT_S = _compile(
     rf"cpu{_S}+(?P<cpu>{_A_NUMBER}){_S}*%"
     rf"|mem{_S}+(?P<mem>{_A_NUMBER}){_S}*(?P<unit>{_UNITS}){_END}"
 )
-_HARDWARE_LINE = re.compile(
+_HARDWARE_LINE = _compile(
     rf"hardware{_S}+({_A_NAME})((?:{_S}+(?:switchable|channel{_S}+(\d+)){_END})*){_TAIL}"
 )
-_TOPIC_FAST = re.compile(
+_TOPIC_FAST = _compile(
     rf"topic{_S}+({_A_NAME})"
     rf"(?:{_S}*:{_S}*((?>{_plain(_MSG_TYPE.pattern)})))?"
     rf"(?:{_S}*\{{{_S}*(?:({_FIELDS}){_S}*(?:,{_S}*)?)?\}})?"
     rf"(?:{_S}*@{_S}*({_A_NUMBER}){_S}*Hz{_END}((?:{_S}*(?:{_plain(_OPTION.pattern)}))*))?" + _TAIL
 )
-_NODE_LINE = re.compile(
+_NODE_LINE = _compile(
     rf"node{_S}+({_A_NAME})(?:{_S}+drives{_S}+({_NAMES}))?{_S}*\{{{_S}*(#[^\n]*)?\n"
 )
-_BODY_LINE = re.compile(
+_BODY_LINE = _compile(
     rf"{_S}*()(?:(?:(subscribes|publishes|reports){_S}+({_NAMES})(?:{_S}+from{_S}+({_NAMES}))?"
     rf"|limits{_S}+((?:{_plain(_LIMIT_S.pattern)})(?:{_S}*,{_S}*(?:{_plain(_LIMIT_S.pattern)}))*))"
     rf"{_S}*(;)?)?{_S}*(#[^\n]*)?\n"
 )
-_CPU_MEM = re.compile(
+_CPU_MEM = _compile(
     rf"cpu{_S}+({_A_NUMBER}){_S}*%{_S}*,{_S}*mem{_S}+({_A_NUMBER}){_S}*({_UNITS}){_END}"
 )
-_CLOSE_LINE = re.compile(rf"{_S}*\}}{_TAIL}")
+_CLOSE_LINE = _compile(rf"{_S}*\}}{_TAIL}")
 # Either side may be 'I(' FIELD_REF ')' (an integrated field) written without blanks.
-_RELATE_LINE = re.compile(
+_RELATE_LINE = _compile(
     rf"relate{_S}+(I\()?({_A_FIELD_REF})(?(1)\)){_S}*~{_S}*(I\()?({_A_FIELD_REF})(?(3)\)){_TAIL}"
 )
-_INTERVAL_LINE = re.compile(
+_INTERVAL_LINE = _compile(
     rf"interval{_S}+({_A_FIELD_REF}){_S}*~{_S}*({_A_FIELD_REF})"
     rf"{_S}*within{_END}{_S}*({_A_NUMBER}){_TAIL}"
 )
 _NO_LIMITS = Limits()
 # A name or a field in a run of them (neither holds a ',' or a blank).
-_ITEM = re.compile(r"[^ \t\f\r,]+")
+_ITEM = _compile(r"[^ \t\f\r,]+")
 
 
 # The one-line shortcuts build spans and names with the IR's own constructors.
@@ -989,4 +1000,6 @@ class _Reader:
 
 def fast_parse(text: str, path: str) -> tuple[Model, list[Token]]:
     """The model (comments not yet attached) and its comment tokens; :class:`Bail` if unsure."""
+    if not _ATOMIC:
+        raise Bail("no atomic groups before Python 3.11")
     return _Reader(text, path).model()

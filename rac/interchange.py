@@ -1,4 +1,4 @@
-"""The JSON interchange ``ram/1`` (contract §1): read and write.
+"""The JSON interchange ``ram/1`` (docs/spec.md): read and write.
 
 A field reference is a string, ``"/pose.yaw"``, or ``"I(/pose.twist.twist.angular.z)"`` for
 an integrated side, exactly as the ``.ram`` text writes it.

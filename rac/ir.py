@@ -1,4 +1,4 @@
-"""The typed IR of a Robot Architecture Model (RAM, §4.2.1, contract §1).
+"""The typed IR of a Robot Architecture Model (RAM, §4.2.1, docs/spec.md).
 
 Frozen, slotted dataclasses with tuples only, so passes cannot mutate what
 they are given and models can be hashed and compared.  Every node that came

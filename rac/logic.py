@@ -14,7 +14,7 @@ FALSE = "false"
 
 @functools.lru_cache(maxsize=1 << 16)  # a large model mangles each name many times
 def mangle(name: str) -> str:
-    """Turn a model name into an atom argument (contract §2).
+    """Turn a model name into an atom argument (docs/spec.md).
 
     ``/robot1/scan`` -> ``robot1_scan``; ``twist.twist.angular.z`` -> ``twist_twist_angular_z``.
     """

@@ -8,6 +8,7 @@ from __future__ import annotations
 import bisect
 import functools
 import math
+import re
 from dataclasses import replace
 from importlib import resources
 from typing import Any
@@ -103,10 +104,17 @@ def _parse_error(err: UnexpectedInput, path: str, text: str) -> Diagnostic:
     if isinstance(err, UnexpectedToken) and err.token.type == "$END":
         line, column = _end_position(text)
         span = Span(path, line, column, line, column + 1)
+        opened = _open_block(text, len(text)) if "RBRACE" in err.expected else None
+        if opened:
+            message = f"unexpected end of file: {opened} is missing its '}}'"
+            return Diagnostic("RAC002", message, span, hint=f"expected {_words(err.expected)}")
         return Diagnostic(
             "RAC002", f"unexpected end of file; expected {_words(err.expected)}", span
         )
     if isinstance(err, UnexpectedToken):
+        special = _special_token_error(err, path, text)
+        if special is not None:
+            return special
         token = err.token
         span = _span(path, token)
         message = f"unexpected '{token}'; expected {_words(err.expected)}"
@@ -126,6 +134,75 @@ def _parse_error(err: UnexpectedInput, path: str, text: str) -> Diagnostic:
         )
     span = Span(path, line, column, line, column + 1)
     return Diagnostic("RAC001", "syntax error", span)
+
+
+_DECLARATIONS = ("hardware", "topic", "node", "relate", "interval")
+_UNIT_TERMINALS = {"MEM_UNIT": "a memory unit", "HZ": "'Hz'", "TIME_UNIT": "a time unit"}
+_NUMBER_BEFORE = re.compile(r"[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?\s*$")
+_BLOCK_HEAD = re.compile(r"(?:^|(?<=[\s;}]))(node|topic)\s+([A-Za-z_~/][A-Za-z0-9_~/\-]*)")
+
+
+def _special_token_error(err: UnexpectedToken, path: str, text: str) -> Diagnostic | None:
+    """The syntax errors that read better in words than as 'unexpected X; expected Y'."""
+    token = err.token
+    start = token.start_pos if token.start_pos is not None else 0
+    before = text[:start]
+    # A number without its unit: the parser only notices at the next token, maybe lines on.
+    units = [t for t in err.expected if t in _UNIT_TERMINALS]
+    number = _NUMBER_BEFORE.search(before) if units else None
+    if number is not None:
+        value = number.group().strip()
+        at = _span_of(path, text, number.start(), number.start() + len(value))
+        message = f"the number {value} needs its unit: expected {_words(set(err.expected))}"
+        return Diagnostic(
+            "RAC001", message, at, hint=f"write e.g. '{value} {_unit_example(units)}'"
+        )
+    # `mismatch 2.5`: the whole number ends at the dot, and '.5' is read as the next number.
+    if str(token).startswith(".") and before[-1:].isdigit():
+        digits = len(before) - len(before.rstrip("0123456789"))
+        first = start - digits
+        keyword = before[:first].split()[-1:] or ["this"]
+        whole = text[first : token.end_pos]
+        at = _span_of(path, text, first, first + len(whole))
+        message = f"'{keyword[0]}' takes a whole number, not {whole}"
+        return Diagnostic("RAC001", message, at)
+    # A block left open: the next declaration is where the parser notices.
+    if "RBRACE" in err.expected and str(token) in _DECLARATIONS:
+        opened = _open_block(text, start)
+        if opened:
+            message = f"{opened} is missing its '}}' before this {token}"
+            return Diagnostic("RAC001", message, _span(path, token), hint="add '}' to close it")
+    return None
+
+
+def _unit_example(units: list[str]) -> str:
+    return {"MEM_UNIT": "MB", "HZ": "Hz", "TIME_UNIT": "s"}[sorted(units)[0]]
+
+
+def _span_of(path: str, text: str, start: int, end: int) -> Span:
+    line = text.count("\n", 0, start) + 1
+    column = start - (text.rfind("\n", 0, start) + 1) + 1
+    return Span(path, line, column, line, column + max(1, end - start))
+
+
+def _open_block(text: str, end: int) -> str | None:
+    """The innermost node body or field list still open at ``end``: "node 'x' (line 3)"."""
+    stack: list[int] = []
+    for m in re.finditer(r"#[^\n]*|[{}]", text[:end]):
+        if m.group() == "{":
+            stack.append(m.start())
+        elif m.group() == "}" and stack:
+            stack.pop()
+    if not stack:
+        return None
+    brace = stack[-1]
+    heads = list(_BLOCK_HEAD.finditer(text, 0, brace))
+    if not heads:
+        return None
+    head = heads[-1]
+    line = text.count("\n", 0, head.start()) + 1
+    what = "node" if head.group(1) == "node" else "the field list of topic"
+    return f"{what} '{head.group(2)}' (line {line})"
 
 
 def _end_position(text: str) -> tuple[int, int]:

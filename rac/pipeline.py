@@ -47,8 +47,8 @@ def check_model(model: Model) -> tuple[Diagnostic, ...]:
 def _verify(compiled: Compiled) -> None:
     """IR invariants between passes: a broken pass fails loudly, not in an output file."""
     heads = {c.head for c in compiled.rbm}
-    # A regular topic nobody in the model publishes still gets its GObs (contract §2), but
-    # no clause derives its ok(t) (contract §3): the observation then only informs the user.
+    # A regular topic nobody in the model publishes still gets its GObs (docs/spec.md), but
+    # no clause derives its ok(t) (docs/spec.md): the observation then only informs the user.
     published = compiled.model.publishers()
     unpublished = {Atom("ok", (mangle(t.name.value),)) for t in compiled.model.topics}
     unpublished -= {Atom("ok", (mangle(t),)) for t in published}

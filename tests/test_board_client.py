@@ -11,7 +11,12 @@ import pytest
 
 from rac.board.channels import ChannelMap, hobs_literals, resolve_target
 from rac.board.client import BoardAddress, BoardClient, ClientSettings, parse_address
-from rac.board.execute import NodeCommands, execute_plan, parse_node_commands
+from rac.board.execute import (
+    NodeCommands,
+    execute_plan,
+    parse_node_commands,
+    suggested_commands,
+)
 from rac.board.sim import BoardSimulator
 from rac.board.state import Fault
 from rac.errors import RacError
@@ -137,15 +142,29 @@ def test_plan_power_cycles_through_the_board_and_renders_node_steps() -> None:
 
     async def test(sim: BoardSimulator, address: BoardAddress) -> None:
         sim.state.trip(1)
-        reports = await execute_plan(plan, TEDUSAR, address, settings=FAST)
+        ros2 = suggested_commands("2")
+        reports = await execute_plan(plan, TEDUSAR, address, settings=FAST, suggest=ros2)
         assert [r.action for r in reports] == [a for a, _ in plan]
         assert reports[0].outcome.startswith("channel 1 (jaguar) off")
         assert reports[1].outcome.startswith("channel 1 (jaguar) on")
         assert reports[2].outcome == "run yourself: pkill -INT -f '__node:=jaguar_node'"
         assert reports[3].outcome == "run yourself: ros2 run <package> jaguar_node"
+        assert [r.executed for r in reports] == [True, True, False, False]
         assert sim.state.channels[0].on
 
     run(test)
+
+
+def test_suggested_node_commands_follow_the_ros_in_use(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("ROS_VERSION", "2")
+    assert suggested_commands().render("start_node", "n") == "ros2 run <package> n"
+    monkeypatch.setenv("ROS_VERSION", "1")
+    assert suggested_commands().render("stop_node", "n") == "rosnode kill /n"
+    assert suggested_commands().render("start_node", "n") == "rosrun <package> n"
+    monkeypatch.delenv("ROS_VERSION")
+    assert suggested_commands().render("stop_node", "n") == "rosnode kill /n"
+    monkeypatch.setenv("ROS_VERSION", "1")
+    assert suggested_commands("2").render("stop_node", "n") == "pkill -INT -f '__node:=n'"
 
 
 def test_plan_runs_node_command_templates_and_fails_on_a_failing_one() -> None:

@@ -92,7 +92,7 @@ def test_many_errors_are_capped(tmp_path: Path, capsys: pytest.CaptureFixture[st
 def test_internal_error_exit_70_and_debug_traceback(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    def boom(_path: str) -> None:
+    def boom(_path: str, **_: object) -> None:
         raise KeyError("simulated bug")
 
     monkeypatch.setattr("rac.commands.check.load_and_compile", boom)

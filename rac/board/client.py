@@ -118,7 +118,7 @@ class BoardClient:
         while (left := deadline - loop.time()) > 0:
             try:
                 msr = await asyncio.wait_for(self.measure(), left)
-            except TimeoutError:
+            except (TimeoutError, asyncio.TimeoutError):
                 break  # a lost board (RAC090) is not caught: it is the better explanation
             if channel <= len(msr.channels) and msr.channels[channel - 1].on == on:
                 return msr
@@ -139,7 +139,7 @@ class BoardClient:
             self._reader, self._writer = await asyncio.wait_for(
                 asyncio.open_connection(self.address.host, self.address.port), timeout
             )
-        except (OSError, TimeoutError) as err:
+        except (OSError, TimeoutError, asyncio.TimeoutError) as err:
             raise board_error(
                 "RAC090",
                 f"cannot connect to the board at {self.address}: {str(err) or 'timed out'}",
@@ -212,7 +212,7 @@ class BoardClient:
                 raise _Lost("not connected")
             try:
                 chunk = await asyncio.wait_for(self._reader.read(4096), self.settings.timeout_s)
-            except TimeoutError:
+            except (TimeoutError, asyncio.TimeoutError):
                 raise _Lost(f"no data for {self.settings.timeout_s:g} s") from None
             if not chunk:
                 raise _Lost("the board closed the connection")

@@ -31,6 +31,7 @@ FAULT_VERBS = {
     "disconnect": Fault.DISCONNECTED,
     "jam": Fault.JAMMED,
 }
+VERBS = ("status", "trip", "overcurrent", "disconnect", "jam", "clear", "on", "off", "help", "quit")
 HELP = "commands: status, trip T, overcurrent T, disconnect T, jam T, clear T, on T, off T, quit"
 
 
@@ -60,6 +61,8 @@ def apply_control(state: BoardState, channels: ChannelMap, line: str) -> str:
         return "ok " + HELP
     if verb == "status":
         return _status(state)
+    if verb not in VERBS:
+        return f"error unknown command '{verb}'; " + HELP
     if len(rest) != 1:
         return f"error '{verb}' takes one target (device or channel); " + HELP
     try:
@@ -112,7 +115,7 @@ async def serve_control(
             await asyncio.wait_for(writer.drain(), 5.0)
             if not raw.endswith(b"\n"):
                 return
-    except (ConnectionError, TimeoutError, asyncio.CancelledError):
+    except (ConnectionError, TimeoutError, asyncio.TimeoutError, asyncio.CancelledError):
         return  # a cancelled handler task would only make asyncio print noise
     finally:
         writer.close()

@@ -1,4 +1,4 @@
-"""Carry out a repair plan (contract §7's ``plan``): hardware steps through the board.
+"""Carry out a repair plan (the ``plan`` of ``racc repair --json``) through the board.
 
 ``power_up``/``shutdown`` become SWT commands, and each step waits for the MSR that shows the
 new state (the dissertation's repair engine did not wait for effects, errata chapter 7).
@@ -8,6 +8,7 @@ Node steps are rendered as the commands a user would run, or run when templates 
 from __future__ import annotations
 
 import asyncio
+import os
 import shlex
 import subprocess
 from collections.abc import Sequence
@@ -42,10 +43,17 @@ class NodeCommands:
         return template.format(node=node)
 
 
-ROS1_COMMANDS = NodeCommands(start="roslaunch <package> {node}.launch", stop="rosnode kill /{node}")
+ROS1_COMMANDS = NodeCommands(start="rosrun <package> {node}", stop="rosnode kill /{node}")
 ROS2_COMMANDS = NodeCommands(
     start="ros2 run <package> {node}", stop="pkill -INT -f '__node:={node}'"
 )
+
+
+def suggested_commands(ros: str | None = None) -> NodeCommands:
+    """The node commands to suggest for ROS ``ros`` ("1" or "2"); by default the ROS in use
+    as its setup script says (``ROS_VERSION``), ROS 1 when none is sourced."""
+    version = ros if ros is not None else os.environ.get("ROS_VERSION", "1").strip()
+    return ROS2_COMMANDS if version == "2" else ROS1_COMMANDS
 
 
 def parse_node_commands(specs: Sequence[str]) -> NodeCommands:
@@ -91,9 +99,18 @@ class StepReport:
     action: str
     argument: str
     outcome: str  # what happened, or the command the user should run
+    executed: bool = True  # False: only printed, for the user to run
 
     def __str__(self) -> str:
         return f"{self.action}({self.argument}): {self.outcome}"
+
+
+def reports_json(reports: Sequence[StepReport]) -> dict[str, list[str]]:
+    """The steps racc carried out, and those it only printed for the user to run."""
+    return {
+        "executed": [str(r) for r in reports if r.executed],
+        "to_run": [str(r) for r in reports if not r.executed],
+    }
 
 
 def _device_for(argument: str, channels: ChannelMap) -> tuple[int, str]:
@@ -155,7 +172,7 @@ async def execute_plan(
     address: BoardAddress | None,
     *,
     node_commands: NodeCommands | None = None,
-    suggest: NodeCommands = ROS2_COMMANDS,
+    suggest: NodeCommands | None = None,
     settings: ClientSettings = DEFAULT_SETTINGS,
     confirm_within_s: float = CONFIRM_WITHIN_S,
 ) -> tuple[StepReport, ...]:
@@ -164,6 +181,7 @@ async def execute_plan(
     Without ``node_commands`` node steps are not run: their report names the command
     (from ``suggest``) that a user would run.
     """
+    suggest = suggest if suggest is not None else suggested_commands()
     for action, _ in plan:
         if action not in HARDWARE_ACTIONS and action not in NODE_ACTIONS:
             raise board_error("RAC096", f"no executor for plan action '{action}'")
@@ -186,7 +204,8 @@ async def execute_plan(
                 raise RacError(
                     [replace(d, message=where + d.message) for d in err.diagnostics]
                 ) from None
-            reports.append(StepReport(action, argument, outcome))
+            printed = action in NODE_ACTIONS and node_commands is None
+            reports.append(StepReport(action, argument, outcome, executed=not printed))
     finally:
         if client is not None:
             await client.close()
@@ -199,6 +218,7 @@ def run_plan(
     address: BoardAddress | None,
     *,
     node_commands: NodeCommands | None = None,
+    suggest: NodeCommands | None = None,
     confirm_within_s: float = CONFIRM_WITHIN_S,
 ) -> tuple[StepReport, ...]:
     """``execute_plan`` for synchronous callers such as ``racc repair --execute``."""
@@ -208,6 +228,7 @@ def run_plan(
             channels,
             address,
             node_commands=node_commands,
+            suggest=suggest,
             confirm_within_s=confirm_within_s,
         )
     )

@@ -22,7 +22,7 @@ from rac.board.client import (
     board_error,
 )
 from rac.board.control import send_control
-from rac.board.execute import NodeCommands, StepReport, execute_plan
+from rac.board.execute import NodeCommands, StepReport, execute_plan, reports_json
 from rac.diagnosis import Literal, Theory
 from rac.errors import Diagnostic, RacError
 from rac.logic import mangle
@@ -57,7 +57,7 @@ class BoardScenario:
             "board_tripped": list(self.tripped),
             "observations": list(self.observations),
             **self.repair.to_json(),
-            "executed": [str(s) for s in self.steps],
+            **reports_json(self.steps),
             "board_after": list(self.after),
             "seconds": round(self.seconds, 3),
             "planning_seconds": round(self.planning_seconds, 3),
@@ -100,6 +100,7 @@ async def device_shutdown_on_board(
     device: str | None = None,
     control: BoardAddress | None = None,
     node_commands: NodeCommands | None = None,
+    suggest: NodeCommands | None = None,
     settings: ClientSettings = DEFAULT_SETTINGS,
     planner_timeout_s: float = DEFAULT_TIMEOUT_S,
 ) -> BoardScenario:
@@ -123,7 +124,7 @@ async def device_shutdown_on_board(
         if control is not None:
             try:
                 reply = await send_control(control.host, control.port, f"trip {number}")
-            except (OSError, TimeoutError) as err:
+            except (OSError, TimeoutError, asyncio.TimeoutError) as err:
                 raise board_error(
                     "RAC090",
                     f"cannot reach the control port {control}: {str(err) or 'timed out'}",
@@ -144,7 +145,7 @@ async def device_shutdown_on_board(
     planning_seconds = time.monotonic() - planning_start
     plan = [(step[0], step[1]) for step in repair.plan]
     steps = await execute_plan(
-        plan, channels, address, node_commands=node_commands, settings=settings
+        plan, channels, address, node_commands=node_commands, suggest=suggest, settings=settings
     )
     async with BoardClient(address, settings) as client:
         after = await _observe(client, channels, number, True)
@@ -172,7 +173,7 @@ def render(run: BoardScenario) -> str:
         f"  diagnosis: bad {', '.join(run.repair.prepared.bad) or '-'}",
         "  plan: " + (", ".join(f"{s[0]}({', '.join(s[1:])})" for s in run.repair.plan) or "-"),
     ]
-    lines += [f"  executed {step}" for step in run.steps]
+    lines += [f"  {'executed' if step.executed else 'to run'} {step}" for step in run.steps]
     lines += [
         f"  board after:   {' '.join(run.after)}",
         f"  took {run.seconds:.2f} s ({run.planning_seconds:.2f} s diagnosing and planning)",

@@ -178,7 +178,7 @@ class BoardSimulator:
         try:
             session.send(self.state.init())
             await self._read_frames(reader, session)
-        except (ConnectionError, OSError, TimeoutError) as err:
+        except (ConnectionError, OSError, TimeoutError, asyncio.TimeoutError) as err:
             self.log(f"{session.name}: {str(err) or 'not reading'}")
         except asyncio.CancelledError:
             pass  # closing down; a cancelled handler task only makes asyncio print noise
@@ -198,7 +198,7 @@ class BoardSimulator:
             timeout = INCOMPLETE_AFTER_S if decoder.in_frame else None
             try:
                 chunk = await asyncio.wait_for(reader.read(READ_SIZE), timeout)
-            except TimeoutError:
+            except (TimeoutError, asyncio.TimeoutError):
                 self.log(f"{session.name}: ACK 2: frame incomplete for {INCOMPLETE_AFTER_S} s")
                 decoder.reset()
                 session.send(Ack(AckCode.INCOMPLETE))

@@ -10,10 +10,10 @@ from __future__ import annotations
 import random
 import zlib
 from dataclasses import dataclass
-from enum import StrEnum
 
 from rac.board.channels import ChannelMap, default_specs
 from rac.board.protocol import ChannelSpec, Init, Measurements, Reading
+from rac.compat import StrEnum
 
 JITTER = 0.02  # ± fraction of the nominal value
 OVERCURRENT_FACTOR = 1.25  # an over-current fault draws this much of the channel's maximum

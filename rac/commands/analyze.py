@@ -8,7 +8,7 @@ from typing import Any
 
 from rac.analysis.analyze import Analysis, analyze, flow_graph
 from rac.analysis.modes import MODES
-from rac.commands.common import add_command
+from rac.commands.common import add_command, count
 from rac.diagnosis import load_theory
 from rac.ir import Model
 from rac.targets.dot import quote
@@ -53,7 +53,7 @@ def analyses(path: str, modes: list[str] | None, double: bool) -> list[Analysis]
 
 def text_report(a: Analysis) -> str:
     lines = [
-        f"{a.model}: mode {a.mode}, {len(a.faults)} faults",
+        f"{a.model}: mode {a.mode}, {count(len(a.faults), 'fault')}",
         f"  detectable {a.detectable}/{len(a.faults)} ({a.detectable_pct:.0f} %), "
         f"isolable {a.isolable}/{len(a.faults)} ({a.isolable_pct:.0f} %), "
         f"mean group size {a.mean_group:.2f}",

@@ -12,14 +12,20 @@ from typing import Any
 
 from rac.board.channels import ChannelMap, channel_map, check_fits, hobs_literals, resolve_target
 from rac.board.client import BoardClient, ClientSettings, parse_address
-from rac.board.control import send_control
-from rac.board.execute import HARDWARE_ACTIONS, parse_node_commands, run_plan
+from rac.board.control import HELP, VERBS, send_control
+from rac.board.execute import (
+    HARDWARE_ACTIONS,
+    parse_node_commands,
+    reports_json,
+    run_plan,
+    suggested_commands,
+)
 from rac.board.protocol import Measurements
 from rac.board.scenario import device_shutdown_on_board
 from rac.board.scenario import render as render_scenario
-from rac.commands.common import add_command, load_checked
+from rac.commands.common import add_command, count, load_checked
 from rac.diagnosis import load_theory
-from rac.errors import Diagnostic, RacError
+from rac.errors import Diagnostic, RacError, did_you_mean
 from rac.repair import NoRepairPlan, robot_name
 
 
@@ -150,10 +156,14 @@ async def switch(args: argparse.Namespace, channels: ChannelMap) -> int:
 
 
 async def control(args: argparse.Namespace) -> int:
+    verb = args.line[0].lower()
+    if verb not in VERBS:  # say so before connecting: the simulator may not even run
+        hint = did_you_mean(verb, VERBS) or HELP
+        raise RacError([Diagnostic("RAC091", f"unknown control command '{verb}'", hint=hint)])
     address = parse_address(args.control)
     try:
         reply = await send_control(address.host, address.port, " ".join(args.line))
-    except (OSError, TimeoutError) as err:
+    except (OSError, TimeoutError, asyncio.TimeoutError) as err:
         raise RacError(
             [
                 Diagnostic(
@@ -208,6 +218,12 @@ def add_board_options(parser: argparse.ArgumentParser) -> None:
         help="run node steps: start=TEMPLATE and stop=TEMPLATE, {node} is the node "
         "(without them node steps are printed, not run)",
     )
+    parser.add_argument(
+        "--ros",
+        choices=("1", "2"),
+        default=None,
+        help="the ROS of the node commands printed for node steps (default: $ROS_VERSION, else 1)",
+    )
 
 
 def _board_channels(model_path: str) -> ChannelMap:
@@ -235,12 +251,16 @@ def execute_repair(args: argparse.Namespace, plan: Sequence[Sequence[str]]) -> i
     channels = _board_channels(args.model) if hardware else ChannelMap()
     templates = parse_node_commands(args.node_commands) if args.node_commands else None
     address = parse_address(args.board) if args.board else None
-    reports = run_plan(steps, channels, address, node_commands=templates)
+    reports = run_plan(
+        steps, channels, address, node_commands=templates, suggest=suggested_commands(args.ros)
+    )
     if args.json:
-        print(json.dumps({"executed": [str(r) for r in reports]}))
+        print(json.dumps(reports_json(reports)))
     else:
-        print(f"executed ({len(reports)} steps):")
-        print("\n".join(f"{i}. {r}" for i, r in enumerate(reports, 1)))
+        done = sum(r.executed for r in reports)
+        print(f"executed {done} of {count(len(reports), 'step')}:")
+        for i, r in enumerate(reports, 1):
+            print(f"{i}. {r}" if r.executed else f"{i}. not run: {r}")
     return 0
 
 
@@ -274,6 +294,7 @@ def run_board_scenario(args: argparse.Namespace) -> int:
                 device=args.device,
                 control=control,
                 node_commands=templates,
+                suggest=suggested_commands(args.ros),
                 planner_timeout_s=args.planner_timeout,
             )
         )

@@ -41,9 +41,15 @@ def register(sub: Any) -> None:
     parser.add_argument(
         "--host", default="127.0.0.1", help="address to bind (default: %(default)s)"
     )
-    parser.add_argument("--port", type=int, default=0, help="board port (default: any free one)")
     parser.add_argument(
-        "--control-port", type=int, default=0, help="control port (default: any free one)"
+        "--port", metavar="PORT", type=int, default=0, help="board port (default: any free one)"
+    )
+    parser.add_argument(
+        "--control-port",
+        metavar="PORT",
+        type=int,
+        default=0,
+        help="control port (default: any free one)",
     )
     parser.add_argument("--seed", type=int, default=0, help="seed of the measurement jitter")
     parser.add_argument("-q", "--quiet", action="store_true", help="do not log client events")

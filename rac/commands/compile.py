@@ -1,4 +1,4 @@
-"""``racc compile``: derive every artefact of contract §4 into one directory."""
+"""``racc compile``: derive every artefact of docs/spec.md into one directory."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from rac.commands.common import add_command, load_and_compile, write_files_atomically
+from rac.commands.common import add_command, count, load_and_compile, write_files_atomically
 from rac.targets import (
     DEFAULT_MODEL_SERVER_PACKAGE,
     DEFAULT_OBSERVERS_PACKAGE,
@@ -98,10 +98,10 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         model = compiled.model
         print(
-            f"compiled {model.name.value}: {len(model.nodes)} nodes, "
-            f"{len(model.hardware)} hardware, "
-            f"{len(model.topics)} topics -> {len(compiled.rbm)} clauses, "
-            f"{len(compiled.observers)} observers"
+            f"compiled {model.name.value}: {count(len(model.nodes), 'node')}, "
+            f"{count(len(model.hardware), 'hardware')}, "
+            f"{count(len(model.topics), 'topic')} -> {count(len(compiled.rbm), 'clause')}, "
+            f"{count(len(compiled.observers), 'observer')}"
         )
         for name in sorted(files):
             print(f"  wrote {out / name}")

@@ -47,11 +47,23 @@ def register(sub: Any) -> None:
     )
     parser.add_argument("model", metavar="MODEL", help="the robot (.ram or ram/1 .json)")
     parser.add_argument("-o", "--output", metavar="DIR", default="demo", help="(default: demo)")
-    parser.add_argument("--fault", action="append", default=[], metavar="KIND@T:TARGET")
+    parser.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        metavar="KIND@T[+D]:TARGET",
+        help="inject a fault: KIND at T s for D s (default: to the end) into TARGET",
+    )
     parser.add_argument("--seed", type=int, default=0, help="seed of the signals (0)")
-    parser.add_argument("--duration", type=float, help="seconds to run (default: until Ctrl-C)")
-    parser.add_argument("--board-port", type=int, default=7000, help="board-sim port (7000)")
-    parser.add_argument("--control-port", type=int, default=7001, help="its control port")
+    parser.add_argument(
+        "--duration", metavar="S", type=float, help="seconds to run (default: until Ctrl-C)"
+    )
+    parser.add_argument(
+        "--board-port", metavar="PORT", type=int, default=7000, help="board-sim port (7000)"
+    )
+    parser.add_argument(
+        "--control-port", metavar="PORT", type=int, default=7001, help="its control port"
+    )
     parser.add_argument("--write-only", action="store_true", help="write the files, run nothing")
     add_ros_option(parser)
     parser.set_defaults(run=run)

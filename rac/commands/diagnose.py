@@ -68,7 +68,7 @@ def add_observation_options(parser: argparse.ArgumentParser) -> None:
 
 
 def observations(args: argparse.Namespace, theory: Theory) -> tuple[Literal, ...]:
-    """Θ from --obs and --obs-file in command-line order (contract §6)."""
+    """Θ from --obs and --obs-file in command-line order (docs/spec.md#observations)."""
     literals: list[Literal] = []
     known = known_lookup(theory)  # once: a look-up in the theory's clause index
     for kind, value in args.sources or ():
@@ -105,7 +105,8 @@ def register(sub: Any) -> None:
     parser.add_argument(
         "--json",
         action="store_true",
-        help="print JSON: consistent, conflicts, and the bad components of each diagnosis",
+        help="print JSON: consistent, conflicts, and the bad components of each diagnosis "
+        "(docs/spec.md#racc-diagnose---json)",
     )
     add_with_good_option(parser)
     parser.set_defaults(run=run)

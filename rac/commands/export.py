@@ -1,4 +1,4 @@
-"""``racc export``: the model as ram/1 JSON (contract §1) or as canonical .ram text."""
+"""``racc export``: the model as ram/1 JSON (docs/spec.md) or as canonical .ram text."""
 
 from __future__ import annotations
 

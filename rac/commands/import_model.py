@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from rac.commands.common import add_command, write_file_atomically
+from rac.commands.common import add_command, count, write_file_atomically
 from rac.errors import RacError
 from rac.fmt import format_model
 from rac.loader import read_text
@@ -75,8 +75,9 @@ def run(args: argparse.Namespace) -> int:
     out = "\n".join(body[: len(model.comments)]) + "\n" + notes + body[-1]
     write_file_atomically(Path(args.output), out)
     print(
-        f"{args.output}: {len(model.nodes)} nodes, {len(model.topics)} topics, "
-        f"{len(compiled.components)} components, {len(imported.notes)} notes",
+        f"{args.output}: {count(len(model.nodes), 'node')}, "
+        f"{count(len(model.topics), 'topic')}, {count(len(compiled.components), 'component')}, "
+        f"{count(len(imported.notes), 'note')}",
         file=sys.stderr,
     )
     return 0

@@ -11,7 +11,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from rac.commands.common import add_command, load_checked, write_file_atomically
+from rac.commands.common import add_command, count, load_checked, write_file_atomically
 from rac.fmt import format_model
 from rac.learn.options import (
     DEFAULT_ALPHA,
@@ -157,10 +157,14 @@ def run(args: argparse.Namespace) -> int:
     if args.properties:
         properties = property_stats(parse_properties(read_text(args.properties), args.properties))
     declared = None
+    only = None
     if base is not None:
-        declared = {t.name.value: frozenset(f.value for f in t.fields) for t in base.topics}
+        # A base topic that lists no fields gives all its numeric signals, as without a base.
+        declared = {
+            t.name.value: frozenset(f.value for f in t.fields) for t in base.topics if t.fields
+        }
+        only = frozenset(t.name.value for t in base.topics)
     selector = FieldSelector(declared, tuple(args.include_fields))
-    only = frozenset(declared) if declared is not None else None
     started = time.perf_counter()
     recording = read_recording(args.runs, selector, only)
     read_s = time.perf_counter() - started
@@ -197,7 +201,7 @@ def run(args: argparse.Namespace) -> int:
         counts = observer_counts(result.model)
         summary = ", ".join(f"{v} {k}" for k, v in counts.items() if k != "total")
         print(
-            f"learned {result.model.name.value} from {recording.messages} messages in "
-            f"{len(recording.runs)} run(s) ({total_s:.1f} s): {summary} -> {args.output}"
+            f"learned {result.model.name.value} from {count(recording.messages, 'message')} in "
+            f"{count(len(recording.runs), 'run')} ({total_s:.1f} s): {summary} -> {args.output}"
         )
     return 0

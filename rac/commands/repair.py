@@ -14,8 +14,8 @@ from typing import Any
 
 from rac.commands.board import add_execute_options, execute_repair
 from rac.commands.common import add_command, write_file_atomically
-from rac.commands.diagnose import add_observation_options, observations
-from rac.diagnosis import load_theory
+from rac.commands.diagnose import add_observation_options, card, notes, observations
+from rac.diagnosis import diagnose, load_theory
 from rac.repair import (
     DEFAULT_TIMEOUT_S,
     PLANNER,
@@ -59,7 +59,19 @@ def add_planner_options(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="check the plan with unified-planning's plan validator (optional extra)",
     )
-    parser.add_argument("--json", action="store_true", help="print JSON (contract §7)")
+    parser.add_argument(
+        "--json", action="store_true", help="print JSON (docs/spec.md#racc-repair---json)"
+    )
+
+
+VALIDATED = "plan validated by unified-planning's plan validator"
+
+
+def validated_json(doc: dict[str, Any], args: argparse.Namespace, plan: tuple[Step, ...]) -> Any:
+    """``validated``: true when --validate checked a plan (an invalid one is an error)."""
+    if args.validate:
+        doc["validated"] = bool(plan)
+    return doc
 
 
 def register(sub: Any) -> None:
@@ -89,6 +101,13 @@ def register(sub: Any) -> None:
         "plan (default); first: repair the first diagnosis only, as the dissertation does",
     )
     parser.add_argument(
+        "--max-card",
+        metavar="K",
+        type=card,
+        default=None,
+        help="search diagnoses of at most K faulty components (default: no bound)",
+    )
+    parser.add_argument(
         "--problem-out", metavar="F", help="also write the PDDL repair problem to file F"
     )
     add_planner_options(parser)
@@ -108,7 +127,11 @@ def compute(args: argparse.Namespace) -> RepairResult:
     """Diagnose, choose, plan (and validate): the result the command prints."""
     theory = load_theory(args.model)
     theta = observations(args, theory)
-    prepared = prepare(theory, theta, robot_name(theory, args.model), args.strategy)
+    diagnosis = diagnose(theory, theta, args.max_card)
+    for note in notes(diagnosis, args.max_card):
+        print(note, file=sys.stderr)
+    robot = robot_name(theory, args.model)
+    prepared = prepare(theory, theta, robot, args.strategy, diagnosis=diagnosis)
     if args.problem_out:
         write_file_atomically(Path(args.problem_out), prepared.problem_text)
     result = solve(prepared, args.planner_timeout)
@@ -128,6 +151,7 @@ def report(result: RepairResult) -> str:
         f"plan ({len(result.plan)} step{'' if len(result.plan) == 1 else 's'}, {PLANNER}):",
         *plan_lines(result.plan),
     ]
+    lines.extend(_why_several(prepared))
     skipped = _skipped_diagnoses(prepared)
     if skipped:
         lines.append(
@@ -136,6 +160,22 @@ def report(result: RepairResult) -> str:
             + " (check that hardware by hand if the fault persists)"
         )
     return "\n".join(lines)
+
+
+def _why_several(prepared: Prepared) -> list[str]:
+    """The minimal strategy repairs several candidates at once: say why, and what helps."""
+    if prepared.strategy != "minimal" or not prepared.diagnosis.diagnoses:
+        return []
+    fewest = min(len(d) for d in prepared.diagnosis.diagnoses)
+    chosen = set(prepared.bad)
+    candidates = [d for d in prepared.diagnosis.diagnoses if len(d) == fewest and set(d) <= chosen]
+    if len(candidates) < 2:
+        return []
+    shown = " or ".join(f"{{{', '.join(d)}}}" for d in candidates)
+    return [
+        f"note: the observations cannot yet tell {shown} apart, so the plan repairs all of "
+        "them; add observers that separate them ('racc place MODEL' proposes some)"
+    ]
 
 
 def _skipped_diagnoses(prepared: Prepared) -> list[tuple[str, ...]]:
@@ -154,9 +194,11 @@ def run(args: argparse.Namespace) -> int:
         print(err.render(), file=sys.stderr)
         return EXIT_NO_PLAN
     if args.json:
-        print(json.dumps(result.to_json()))
+        print(json.dumps(validated_json(result.to_json(), args, result.plan)))
     else:
         print(report(result))
+        if args.validate and result.plan:
+            print(VALIDATED)
     if args.execute:
         return execute_repair(args, result.plan)
     return 0

@@ -11,8 +11,14 @@ import sys
 from typing import Any
 
 from rac.commands.board import add_scenario_options, run_board_scenario
-from rac.commands.common import add_command
-from rac.commands.repair import EXIT_NO_PLAN, add_planner_options, plan_lines
+from rac.commands.common import add_command, count
+from rac.commands.repair import (
+    EXIT_NO_PLAN,
+    VALIDATED,
+    add_planner_options,
+    plan_lines,
+    validated_json,
+)
 from rac.diagnosis import load_theory
 from rac.repair import PLANNER, SCENARIOS, Kind, NoRepairPlan, ScenarioResult, robot_name
 from rac.repair.scenario import run_scenario, state_json
@@ -62,7 +68,7 @@ def report(result: ScenarioResult) -> str:
         f"scenario {scenario.name}{what}: {len(prepared.observations)} observations, "
         f"{sum(not o.positive for o in prepared.observations)} of them negative",
         f"diagnosis: bad {{{', '.join(prepared.bad)}}}",
-        f"plan ({len(repair.plan)} steps, {PLANNER}):",
+        f"plan ({count(len(repair.plan), 'step')}, {PLANNER}):",
         *plan_lines(repair.plan),
         "state after the plan:",
     ]
@@ -91,5 +97,10 @@ def run(args: argparse.Namespace) -> int:
     except NoRepairPlan as err:
         print(err.render(), file=sys.stderr)
         return EXIT_NO_PLAN
-    print(json.dumps(result.to_json()) if args.json else report(result))
+    if args.json:
+        print(json.dumps(validated_json(result.to_json(), args, result.repair.plan)))
+    else:
+        print(report(result))
+        if args.validate and result.repair.plan:
+            print(VALIDATED)
     return 0

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from rac.commands.common import add_command, load_checked
+from rac.commands.common import count as plural
 from rac.errors import Diagnostic, RacError
 from rac.synth.faults import FAULT_KINDS, FAULT_SPEC, Fault, parse_fault
 from rac.synth.schedule import (
@@ -78,7 +79,7 @@ def register(sub: Any) -> None:
     parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     parser.add_argument(
         "--fault",
-        metavar="KIND@T:TARGET",
+        metavar="KIND@T[+D]:TARGET",
         action="append",
         default=[],
         type=fault_arg,
@@ -182,7 +183,8 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         kind = "ROS 1 bag" if ros_version == 1 else f"ROS 2 bag ({storage})"
         print(
-            f"wrote {out} ({kind}): {count} messages on {len(plan.topics)} topics, "
+            f"wrote {out} ({kind}): {plural(count, 'message')} on "
+            f"{plural(len(plan.topics), 'topic')}, "
             f"{args.duration:g} s; properties -> {csv_path}; faults -> {faults_path}"
         )
         for line in fault_summary(faults):

@@ -1,4 +1,4 @@
-"""Read a model-server ``model.yaml`` (contract §5) into a :class:`Theory`.
+"""Read a model-server ``model.yaml`` (docs/spec.md) into a :class:`Theory`.
 
 Every problem names its line and column.  Two readers give the same document:
 

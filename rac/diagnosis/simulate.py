@@ -41,18 +41,31 @@ class Simulation:
 def check_components(theory: Theory, names: Sequence[str]) -> tuple[str, ...]:
     """The names, sorted and unique; RacError RAC042 (with did-you-mean) for unknown ones."""
     known = set(theory.components)
-    errors = [
-        Diagnostic(
-            "RAC042",
-            f"unknown component '{name}'",
-            hint=did_you_mean(name, known) or f"components: {', '.join(theory.components)}",
-        )
-        for name in names
-        if name not in known
-    ]
+    errors = [_unknown_component(theory, name) for name in names if name not in known]
     if errors:
         raise RacError(errors)
     return tuple(sorted(set(names)))
+
+
+def _unknown_component(theory: Theory, name: str) -> Diagnostic:
+    """RAC042; fixed hardware is no component, its driver stands for it (Algorithm 9)."""
+    model = theory.model
+    fixed = model is not None and any(
+        h.name.value == name and not h.switchable for h in model.hardware
+    )
+    if model is not None and fixed:
+        drivers = sorted(n.name.value for n in model.nodes if name in {d.value for d in n.drives})
+        if drivers:
+            shown = " and ".join(drivers)
+            message = (
+                f"'{name}' is fixed hardware, so its faults show as faults of its driver"
+                f"{'s' if len(drivers) > 1 else ''} {shown}"
+            )
+            return Diagnostic("RAC042", message, hint=f"inject a fault of {drivers[0]}")
+        return Diagnostic("RAC042", f"'{name}' is fixed hardware that no node drives")
+    known = theory.components
+    hint = did_you_mean(name, known) or f"components: {', '.join(known)}"
+    return Diagnostic("RAC042", f"unknown component '{name}'", hint=hint)
 
 
 def observable(theory: Theory) -> tuple[Atom, ...]:

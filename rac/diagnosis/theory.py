@@ -1,4 +1,4 @@
-"""Diagnosis theories and observation literals (contract §5 and §6).
+"""Diagnosis theories and observation literals (docs/spec.md).
 
 A :class:`Theory` is what the engine reasons over, whichever file it came from: the
 compiled RBM of a ``.ram``/``.json`` model, or the rules of a model-server ``model.yaml``
@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 from rac.errors import Diagnostic, RacError, Span, did_you_mean
 from rac.loader import read_text
-from rac.logic import AB, FALSE, NAB, NEG_PREFIX, Atom, Clause, parse_atom
+from rac.logic import AB, FALSE, NAB, NEG_PREFIX, Atom, Clause, mangle, parse_atom
 from rac.perf import paused_gc
 
 if TYPE_CHECKING:  # the compiler loads only for .ram/.json models
@@ -138,9 +138,14 @@ def literal_at(
     negation = _NEGATIONS.match(text)
     positive = negation is None
     body = text[negation.end() :] if negation else text
+    mangled_from = None
+    atom: Atom | None
     try:
         atom = parse_atom(body)
     except ValueError:
+        atom = _with_ros_names(body)  # ok(/odom), ok(imu/data): mangle as the compiler does
+        mangled_from = body.strip()
+    if atom is None:
         raise RacError(
             [
                 Diagnostic(
@@ -173,10 +178,26 @@ def literal_at(
         if hint is None and theory.props:
             shown = ", ".join(str(a) for a in theory.props[:5])
             hint = f"observable atoms include {shown}"
+        what = f"'{atom}' (from '{mangled_from}')" if mangled_from else f"'{atom}'"
         raise RacError(
-            [Diagnostic("RAC040", f"unknown atom '{atom}' in an observation", span, hint=hint)]
+            [Diagnostic("RAC040", f"unknown atom {what} in an observation", span, hint=hint)]
         )
     return Literal(atom, positive, theory.neg_prefix)
+
+
+_ROS_ATOM = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*\(([^()]*)\)\s*")
+
+
+def _with_ros_names(text: str) -> Atom | None:
+    """``ok(/imu/data)`` as ``ok(imu_data)``: ROS names in an atom, mangled; None if no atom."""
+    match = _ROS_ATOM.fullmatch(text)
+    if match is None:
+        return None
+    args = ",".join(mangle(a.strip()) for a in match.group(2).split(","))
+    try:
+        return parse_atom(f"{match.group(1)}({args})")
+    except ValueError:
+        return None
 
 
 def collect(literals: Iterable[Literal]) -> tuple[Literal, ...]:

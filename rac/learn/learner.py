@@ -14,6 +14,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+import numpy as np
+
 from rac.ir import Hardware, Limits, Model, Name, Node, Publication, Related, Topic
 from rac.learn.correlate import correlations
 from rac.learn.frequency import RateStats, rate_stats
@@ -46,6 +48,18 @@ def _ms(seconds: float) -> str:
     return f"{seconds * 1e3:.4g} ms"
 
 
+def _rounded_rate(rate: float, tolerance: float) -> tuple[float, float]:
+    """The rate to the digits its tolerance justifies (a tenth of the tolerance's leading
+    digit: 9.99997 ± 0.144 Hz is 10 Hz), the tolerance widened by what the rounding moved."""
+    if not (math.isfinite(tolerance) and tolerance > 0):
+        return _sig(rate, 6), _sig(tolerance, 3)
+    step = 10.0 ** (math.floor(math.log10(tolerance)) - 1)
+    rounded = _sig(round(rate / step) * step, 6) or _sig(rate, 6)  # never a rate of zero
+    widened = tolerance + abs(rate - rounded)
+    scale = 10.0 ** (math.floor(math.log10(widened)) - 2)
+    return rounded, _sig(math.ceil(widened / scale - 1e-9) * scale, 3)
+
+
 def _rate_comment(s: RateStats, alpha: float) -> str:
     verdict = f"> α {alpha:g}: regular" if s.regular else f"<= α {alpha:g}: irregular"
     return (
@@ -69,8 +83,8 @@ def _learned_topic(topic: Topic, stats: RateStats | None, alpha: float) -> Topic
             mismatch_threshold=None,
             comments=comments,
         )
-    rate = _sig(stats.rate_hz, 6)
-    tolerance = min(_sig(stats.tolerance_hz, 3), rate * 0.999)
+    rate, tolerance = _rounded_rate(stats.rate_hz, stats.tolerance_hz)
+    tolerance = min(tolerance, rate * 0.999)
     window = topic.window_s if topic.rate_hz is not None else None
     mismatch = topic.mismatch_threshold if topic.rate_hz is not None else None
     return replace(
@@ -140,7 +154,18 @@ def _structure_from_recording(recording: Recording) -> list[Node]:
 
 
 def _topic_from_recording(data: TopicData) -> Topic:
-    return Topic(Name(data.name), data.msg_type, tuple(Name(f) for f in data.fields))
+    """The recorded topic with its varying fields: a constant signal relates to nothing."""
+    return Topic(Name(data.name), data.msg_type, tuple(Name(f) for f in varying_fields(data)))
+
+
+def varying_fields(data: TopicData) -> tuple[str, ...]:
+    """The fields whose finite values change over the recording."""
+    out = []
+    for name, row in zip(data.fields, data.values, strict=True):
+        finite = row[np.isfinite(row)]
+        if finite.size and float(finite.max()) > float(finite.min()):
+            out.append(name)
+    return tuple(out)
 
 
 def _structure(
@@ -225,6 +250,7 @@ def _learn_relations(
     declarable: set[str],
     undeclared: list[str],
     regular: set[str],
+    notes: list[str],
 ) -> tuple[list[Related], list[LearnedRelation]]:
     """Qualitative correlations (Algorithms 16 and 17) between the declared topics, as
     ``relate`` declarations where both topics have a publisher."""
@@ -233,6 +259,11 @@ def _learn_relations(
         topic_trend = topic_trends(data, options.occurrences, options.integrate)
         if topic_trend is not None:
             trends.append(topic_trend)
+    if len({s for t in trends for s in t.signals if not s.integrated}) < 2:
+        notes.append(
+            "no two varying numeric signals are left to relate, so no relations are learned "
+            "(are the topics' fields constant, or excluded by the base model's field lists?)"
+        )
     related: list[Related] = []
     kept: list[LearnedRelation] = []
     for rel in group_relations(correlations(trends, options.q, options.min_lift)):
@@ -290,7 +321,7 @@ def learn(
     steady = {r.topic for r in rates if r.ratio >= STEADY_RATIO}
     regular = {t.name.value for t in learned_topics if t.regular} & steady
     related, kept = _learn_relations(
-        recording, options, declared, published & declared, undeclared, regular
+        recording, options, declared, published & declared, undeclared, regular, notes
     )
     if base is not None:
         _note_dropped_relations(base, related, options, notes)

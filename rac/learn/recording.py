@@ -7,18 +7,21 @@ field values.  :func:`merge_runs` joins several runs into one training set (Algo
 from __future__ import annotations
 
 import struct
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 from rosbags.highlevel import AnyReader, AnyReaderError
+from rosbags.interfaces import Connection
+from rosbags.rosbag1 import Reader as Reader1
 from rosbags.rosbag1 import ReaderError as Rosbag1Error
 from rosbags.rosbag2 import ReaderError as Rosbag2Error
 from rosbags.serde import SerdeError
 from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.base import TypesysError
+from rosbags.typesys.store import Typestore
 
 from rac.errors import Diagnostic, RacError
 from rac.learn.fields import FieldSelector, FloatArray, extractor, layout_of
@@ -117,15 +120,46 @@ def read_run(
     try:
         # Bags written without message definitions (older ROS 2) fall back to the standard types.
         store = get_typestore(Stores.ROS2_HUMBLE if p.is_dir() else Stores.ROS1_NOETIC)
-        with AnyReader([p], default_typestore=store) as reader:
-            return _read(reader, str(path), selector, topics)
+        try:
+            with AnyReader([p], default_typestore=store) as reader:
+                return _read(reader, str(path), selector, topics)
+        except (TypesysError, AnyReaderError) as err:
+            # Old ROS 1 bags define `Header` as roslib/Header, which the definitions the bag
+            # carries then lack: decode with Noetic's own definitions instead.
+            if p.is_dir() or "is unknown" not in str(err):
+                raise
+            with Reader1(p) as bag:
+                return _read(_WithTypestore(bag, store), str(path), selector, topics)
     except _DAMAGED as err:
         why = str(err) or f"damaged ({type(err).__name__})"
         raise _fail(str(path), why) from None
 
 
+class _WithTypestore:
+    """A ROS 1 bag read through a fixed typestore, its own message definitions ignored
+    (the part of AnyReader's interface :func:`_read` uses)."""
+
+    is2 = False
+
+    def __init__(self, bag: Reader1, typestore: Typestore) -> None:
+        self.bag = bag
+        self.typestore = typestore
+        self.connections = bag.connections
+
+    def messages(
+        self, connections: Sequence[Connection]
+    ) -> Iterator[tuple[Connection, int, bytes]]:
+        return self.bag.messages(connections=connections)
+
+    def deserialize(self, rawdata: bytes, typ: str) -> object:
+        return self.typestore.deserialize_ros1(rawdata, typ)
+
+
 def _read(
-    reader: AnyReader, path: str, selector: FieldSelector, only: frozenset[str] | None
+    reader: AnyReader | _WithTypestore,
+    path: str,
+    selector: FieldSelector,
+    only: frozenset[str] | None,
 ) -> Run:
     fielddefs = reader.typestore.fielddefs
     connections = [c for c in reader.connections if only is None or c.topic in only]

@@ -1,4 +1,4 @@
-"""derive_observers: the observers model (§5.2, §6.2.2, contract §2).
+"""derive_observers: the observers model (§5.2, §6.2.2, docs/spec.md).
 
 One :class:`ObserverSpec` per observer instance, with the parameters the
 dissertation's observer nodes take (names as in §6.2.2's launch file).
@@ -95,7 +95,7 @@ def derive_observers(model: Model) -> tuple[ObserverSpec, ...]:
             specs.append(
                 ObserverSpec("PObs", f"{n}_{prop}_pobs", params, (ok(node.name.value, prop),))
             )
-    # One DObs per reported device (contract §2), naming every node that reports it.
+    # One DObs per reported device (docs/spec.md), naming every node that reports it.
     reporters: dict[str, list[str]] = {}
     for node in model.nodes:
         for device in node.diagnostics:

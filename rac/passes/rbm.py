@@ -1,6 +1,6 @@
-"""derive_rbm: the robot behavioural model, contract §3 (Algorithm 9 generalised).
+"""derive_rbm: the robot behavioural model, docs/spec.md (Algorithm 9 generalised).
 
-Clauses come out in the order of the contract's seven groups, each group in
+Clauses come out in the order of the groups of docs/spec.md, each group in
 declaration order, without duplicates, so the output is stable and readable.  The loop
 rule (``rac.passes.loops``) follows the publication clauses it completes.
 """
@@ -104,7 +104,7 @@ GROUPS = (
 
 
 def derive_rbm(model: Model) -> tuple[Clause, ...]:
-    """The exact clause set of contract §3 for a validated model.
+    """The exact clause set of docs/spec.md for a validated model.
 
     Two clauses are the same when their bodies hold the same atoms: the related pair
     (τ.f1, τ.f2) with publishers n1 and n2 yields NAB(n1), NAB(n2) and NAB(n2), NAB(n1).

@@ -111,9 +111,19 @@ def check_references(model: Model) -> Iterator[Diagnostic]:
     """Every hardware and topic a node names is declared."""
     hardware = model.hardware_by_name()
     topics = model.topic_by_name()
+    nodes = {n.name.value: n for n in model.nodes}
     for node in model.nodes:
         for hw in node.drives:
-            if hw.value not in hardware:
+            if hw.value in nodes and hw.value not in hardware:  # named the driver, not its device
+                msg = f"node '{node.name.value}' drives '{hw.value}', which is a node, not hardware"
+                driven = [d.value for d in nodes[hw.value].drives]
+                hint = (
+                    f"'{hw.value}' drives {', '.join(repr(d) for d in driven)}; name that"
+                    if driven
+                    else "'drives' names hardware declared with 'hardware NAME'"
+                )
+                yield _error("RAC011", msg, hw.span, hint)
+            elif hw.value not in hardware:
                 msg = f"node '{node.name.value}' drives undefined hardware '{hw.value}'"
                 yield _error("RAC011", msg, hw.span, did_you_mean(hw.value, hardware))
         used = [
@@ -201,8 +211,10 @@ def check_field_pairs(model: Model) -> Iterator[Diagnostic]:
             if ref.field not in fields:
                 msg = f"topic '{ref.topic}' has no field '{ref.field}'"
                 hint = did_you_mean(ref.field, fields)
-                if hint is None:
+                if hint is None and fields:
                     hint = f"declare it in the topic's field list {{ {', '.join(fields)} }}"
+                elif hint is None:
+                    hint = f"declare it in a field list: topic {ref.topic} {{ {ref.field} }}"
                 yield _error("RAC014", msg, ref.span, hint)
             elif ref.topic not in publishers:
                 msg = f"{what} names topic '{ref.topic}', which no node publishes"
@@ -313,7 +325,7 @@ def check_values(model: Model) -> Iterator[Diagnostic]:
 
 
 def check_mangling(model: Model) -> Iterator[Diagnostic]:
-    """Different names must not become the same atom argument (contract §2)."""
+    """Different names must not become the same atom argument (docs/spec.md)."""
     groups: list[tuple[str, list[Name]]] = [
         ("component", [*(h.name for h in model.hardware), *(n.name for n in model.nodes)]),
         ("topic", [t.name for t in model.topics]),

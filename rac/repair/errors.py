@@ -1,4 +1,4 @@
-"""NoRepairPlan: why no repair plan exists; the commands exit 3 on it (contract §7)."""
+"""NoRepairPlan: why no repair plan exists; the commands exit 3 on it (docs/spec.md)."""
 
 from __future__ import annotations
 

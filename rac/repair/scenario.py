@@ -10,7 +10,7 @@ is stopped are abnormal; a driver whose device went off still runs.
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from rac.diagnosis import Literal, Theory, predict
@@ -19,6 +19,7 @@ from rac.ir import Model
 from rac.logic import mangle
 from rac.repair.engine import RepairResult, prepare, repair_system, solve
 from rac.repair.errors import NoRepairPlan
+from rac.repair.order import dataflow_order
 from rac.repair.planner import DEFAULT_TIMEOUT_S
 from rac.repair.simulate import State
 from rac.repair.system import Kind, RepairSystem
@@ -72,6 +73,20 @@ def device_shutdown(system: RepairSystem, model: Model | None, device: str | Non
             )
     name = mangle(device)
     hardware = system.of_kind(Kind.DEVICE) + system.of_kind(Kind.HARDWARE)
+    fixed = model is not None and any(
+        mangle(h.name.value) == name and not h.switchable for h in model.hardware
+    )
+    if name not in hardware and fixed:
+        switchable = sorted(system.of_kind(Kind.DEVICE))
+        raise RacError(
+            [
+                Diagnostic(
+                    "RAC076",
+                    f"'{device}' is not switchable: the board cannot shut it down",
+                    hint=f"switchable devices: {', '.join(switchable) or 'none'}",
+                )
+            ]
+        )
     if name not in hardware:
         raise RacError(
             [
@@ -145,4 +160,8 @@ def run_scenario(
         )
     theta = observations(theory, scenario.faulty)
     prepared = prepare(theory, theta, robot)
-    return ScenarioResult(scenario, solve(prepared, timeout_s))
+    result = solve(prepared, timeout_s)
+    if name == "power-up" and theory.model is not None:
+        plan = dataflow_order(result.plan, prepared.problem.system, theory.model)
+        result = replace(result, plan=plan)
+    return ScenarioResult(scenario, result)

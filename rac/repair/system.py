@@ -15,8 +15,8 @@ action.  From a RAM this is read off the model; a model server file
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import StrEnum
 
+from rac.compat import StrEnum
 from rac.ir import Model
 from rac.logic import NAB, Clause, mangle
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from rac.errors import Diagnostic, RacError
+from rac.errors import Diagnostic, RacError, did_you_mean
 from rac.ir import Model
 
 FAULT_KINDS = {
@@ -35,8 +35,9 @@ class Fault:
         return float("inf") if self.duration is None else self.start + self.duration
 
 
-def _bad(spec: str, why: str) -> RacError:
-    hint = "write KIND@T[+D]:TARGET, e.g. slip@60+10:/pose, crash@120:joy_node, freq@90:/scan"
+def _bad(spec: str, why: str, hint: str | None = None) -> RacError:
+    if hint is None:
+        hint = "write KIND@T[+D]:TARGET, e.g. slip@60+10:/pose, crash@120:joy_node, freq@90:/scan"
     return RacError([Diagnostic("RAC083", f"fault '{spec}': {why}", hint=hint)])
 
 
@@ -48,11 +49,13 @@ def parse_fault(spec: str, model: Model, duration: float | None = None) -> Fault
         raise _bad(spec, "not of the form KIND@T[+D]:TARGET")
     kind, target = match["kind"], match["target"]
     if kind not in FAULT_KINDS:
-        raise _bad(spec, f"unknown kind '{kind}' (one of {', '.join(FAULT_KINDS)})")
+        why = f"unknown kind '{kind}' (one of {', '.join(FAULT_KINDS)})"
+        raise _bad(spec, why, did_you_mean(kind, FAULT_KINDS))
     names = model.topic_by_name() if FAULT_KINDS[kind] == "topic" else model.node_by_name()
     if target not in names:
         what = FAULT_KINDS[kind]
-        raise _bad(spec, f"the model has no {what} '{target}' (one of {', '.join(sorted(names))})")
+        why = f"the model has no {what} '{target}' (one of {', '.join(sorted(names))})"
+        raise _bad(spec, why, did_you_mean(target, names))
     topic = model.topic_by_name().get(target)
     odometry = topic is not None and (topic.msg_type or "").replace("/msg/", "/") == ODOMETRY
     if kind == "slip" and not odometry:

@@ -1,6 +1,6 @@
 """Emitters, registered by target name: each is a pure ``(Compiled, EmitOptions) -> str``.
 
-``TARGETS`` fixes the file each target writes (contract §4) and the order the
+``TARGETS`` fixes the file each target writes (docs/spec.md) and the order the
 CLI emits them in.
 """
 

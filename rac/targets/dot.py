@@ -84,7 +84,7 @@ def _topic_tooltip(name: str, topic: Topic | None) -> str:
 
 
 def node_class(node: Node, switchable: set[str], hardware: set[str]) -> str:
-    """SN drives switchable hardware, HN only other hardware, N none (contract §1)."""
+    """SN drives switchable hardware, HN only other hardware, N none (docs/spec.md)."""
     drives = {h.value for h in node.drives}
     if drives & switchable:
         return "sn"

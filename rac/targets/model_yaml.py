@@ -1,4 +1,4 @@
-"""model.yaml: the diagnosis model server file (§6.3, contract §4)."""
+"""model.yaml: the diagnosis model server file (§6.3, docs/spec.md)."""
 
 from __future__ import annotations
 

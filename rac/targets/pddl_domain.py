@@ -1,4 +1,4 @@
-"""repair_domain.pddl: the typed PDDL repair domain (§7.1.2.1, contract §4).
+"""repair_domain.pddl: the typed PDDL repair domain (§7.1.2.1, docs/spec.md).
 
 The domain is the same for every robot but for its name: which node drives
 which device is a fact of the problem (``drives``), written by the repair
