@@ -45,12 +45,10 @@ RACC = [sys.executable, "-m", "rac"]
 
 
 def live_model(tmp: Path) -> Path:
-    """tedusar without its qualitative relations (``relate``): on the demo's live signals the
-    binary qualitative observers still flap (see docs/runtime.md, "Known limits"), which
-    would make every run end in a spurious repair.  Everything else is tedusar's."""
+    """tedusar as it is, its qualitative relations (``relate``) and its ``interval`` on the
+    servo included: the healthy demo must keep every observation positive."""
     path = tmp / "tedusar.ram"
-    lines = TEDUSAR.read_text(encoding="utf-8").splitlines()
-    path.write_text("\n".join(x for x in lines if not x.startswith("relate ")) + "\n")
+    shutil.copyfile(TEDUSAR, path)
     return path
 
 
@@ -87,6 +85,9 @@ class Live:
     build: Path
     seen: Seen
     atoms: int
+    # The atoms of every observer but the qualitative ones (BiQObs): those give their first
+    # verdict only after 10 s of slope history (docs/observers.md), the others within 5 s.
+    quick_atoms: int
     procs: list[subprocess.Popen[bytes]] = field(default_factory=list)
 
     def start(self, args: list[str], log: str) -> subprocess.Popen[bytes]:
@@ -126,7 +127,8 @@ def live(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Live]:
         env=env,
     )
     specs = load_observers(build / "observers.yaml")[1]
-    live = Live(env, tmp, build, Seen(), sum(len(s.atoms) for s in specs))
+    quick = sum(len(s.atoms) for s in specs if s.kind != "BiQObs")
+    live = Live(env, tmp, build, Seen(), sum(len(s.atoms) for s in specs), quick)
     core = live.start(["roscore", "-p", str(port)], "roscore.log")
     import rosgraph
 
@@ -257,12 +259,15 @@ def test_demo_robot_faults_are_diagnosed_repaired_and_verified(live: Live) -> No
     launched = time.time()
     runtime = launch_runtime(live, demo_dir, board)
     try:
-        healthy = seen.wait(all_ok_since(seen, launched, live.atoms), 15)
+        healthy = seen.wait(all_ok_since(seen, launched, live.quick_atoms), 15)
         assert healthy is not None, "never all ok after launch"
-        print(f"\ntime to all-ok after launch: {healthy - launched:.2f} s")
+        print(f"\ntime to all-ok after launch (all but BiQObs): {healthy - launched:.2f} s")
         assert healthy - launched <= 5.0
-
         crash = epoch + crash_at
+        related = seen.wait(all_ok_since(seen, launched, live.atoms), crash - time.time() - 1)
+        assert related is not None, "the qualitative relations were not all matched"
+        print(f"time to all-ok after launch (BiQObs included): {related - launched:.2f} s")
+
         named = seen.wait(named_since(seen, crash, "jaguar_node"), crash - time.time() + 10)
         assert named is not None, "the crash was not diagnosed"
         print(f"time to diagnose the crash: {named - crash:.2f} s")
@@ -287,6 +292,14 @@ def test_demo_robot_faults_are_diagnosed_repaired_and_verified(live: Live) -> No
         named = seen.wait(named_since(seen, freq, "hokuyo_node"), freq - time.time() + 10)
         assert named is not None, "the 5x frequency fault was not diagnosed as hokuyo_node"
         print(f"time to diagnose the frequency fault: {named - freq:.2f} s")
+        with seen.lock:
+            flips = [
+                (round(t - epoch, 1), m)
+                for t, rows in seen.observations
+                for m, level in rows
+                if level and m.startswith("not_matched")
+            ]
+        print(f"BiQObs not_matched seen: {flips}")
     finally:
         live.stop(runtime)
         live.stop(demo)

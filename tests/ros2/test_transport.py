@@ -48,6 +48,8 @@ def test_package_prefix_and_launch_entries(tmp_path: Path, monkeypatch: pytest.M
         'args="o.yaml --rate $(var rate)">'
         '<param name="k" value="1"/><remap from="/a" to="/b"/></node></launch>'
     )
+    # Not found without the prefix (test_live's fixture leaves its own in the environment).
+    monkeypatch.delenv("AMENT_PREFIX_PATH", raising=False)
     with pytest.raises(RacError) as missing:
         command_line(load_launch(launch)[0])
     assert missing.value.diagnostics[0].code == "RAC118"
