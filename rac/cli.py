@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import gc
 import importlib
 import io
 import os
@@ -115,6 +116,17 @@ def _add_quiet(command: argparse.ArgumentParser) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    try:
+        return _main(argv)
+    finally:
+        # The command is done and the process is about to end: the collector's last pass at
+        # exit would walk every object still held (a 10,000-node model's theory and index:
+        # about 0.1 s of a 0.7 s `racc diagnose`), only to find nothing to collect.
+        # Objects alive now are left to reference counting; later garbage is collected as usual.
+        gc.freeze()
+
+
+def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser(_command_of(sys.argv[1:] if argv is None else argv))
     args = parser.parse_args(argv)
     if getattr(args, "run", None) is None:

@@ -11,6 +11,8 @@ import json
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import rac.diagnosis.model_yaml as model_yaml
 from rac.cli import main
@@ -182,3 +184,90 @@ def test_minimal_sets_and_transversals_with_singletons() -> None:
     assert minimal_sets([frozenset("ab"), frozenset()]) == [frozenset()]
     assert transversals([frozenset("abc")]) == [frozenset("a"), frozenset("b"), frozenset("c")]
     assert transversals([frozenset("ab"), frozenset("bc")]) == [frozenset("b"), frozenset("ac")]
+
+
+def _index_arrays(theory: Theory) -> tuple[object, ...]:
+    from rac.diagnosis.engine import Index
+
+    index = Index(theory)
+    return (
+        index.keys,
+        [list(b) for b in index.body],
+        list(index.head),
+        index.complement,
+        index.mentioned,
+        [index.literal_id(p, a, v) for p, a in index.keys for v in (True, False)],
+        index.facts,
+        index.monotone,
+    )
+
+
+TABLE_EDITS = [
+    lambda t: t,
+    lambda t: t.replace("rules:\n", "rules:\n- NAB(extra), NAB(extra), ok(x) -> ok(y)\n", 1),
+    lambda t: t.replace("rules:\n", "rules:\n- -> ok(fact)\n- ok(fact) -> false\n", 1),
+    lambda t: t + t[t.index("rules:\n") + 7 :],  # every rule twice
+    lambda t: t.replace("props:\n", "props:\n- only_a_prop(x)\n- only_a_prop(x)\n", 1),
+    lambda t: t.replace(" -> ", "  ->  ", 3),  # another layout: no table, same theory
+]
+
+
+@pytest.mark.parametrize("edit", TABLE_EDITS)
+def test_the_clause_table_numbers_atoms_as_the_index_does(generated: str, edit: object) -> None:
+    import dataclasses
+
+    text = edit(generated)  # type: ignore[operator]
+    theory = model_yaml.parse_model_yaml(text, "m.yaml")
+    assert theory == _slow(text)
+    plain = dataclasses.replace(theory, table=None)
+    assert _index_arrays(theory) == _index_arrays(plain)
+    if "  ->  " not in text:
+        assert theory.table is not None and theory.table.clauses is theory.clauses
+
+
+def test_a_stale_clause_table_is_ignored(generated: str) -> None:
+    import dataclasses
+
+    theory = model_yaml.parse_model_yaml(generated, "m.yaml")
+    fewer = dataclasses.replace(theory, clauses=theory.clauses[1:])  # the table stays behind
+    assert _index_arrays(fewer) == _index_arrays(dataclasses.replace(fewer, table=None))
+
+
+_ATOMS = ["NAB(a)", "NAB(b)", "AB(a)", "ok(x)", "not_ok(x)", "ok(y)", "p", "q(a,b)", "false"]
+
+
+@st.composite
+def _model_texts(draw: st.DrawFn) -> str:
+    """model.yaml texts near racc's layout: blocks interrupted by comments, blanks, odd spacing."""
+    indent = draw(st.sampled_from(["", "  "]))
+    lines = ["ab: AB", "props:"]
+    lines += [f"{indent}- {a}" for a in draw(st.lists(st.sampled_from(_ATOMS), max_size=3))]
+    lines.append("rules:")
+    for _ in range(draw(st.integers(0, 12))):
+        body = draw(st.lists(st.sampled_from(_ATOMS), max_size=3))
+        head = draw(st.sampled_from(_ATOMS))
+        sep = draw(st.sampled_from([", ", ",", " , "]))
+        arrow = draw(st.sampled_from([" -> ", "->", " ->  "]))
+        rule = f"{sep.join(body)}{arrow}{head}" if body else f"-> {head}"
+        lines.append(f"{indent}- {rule}")
+        lines += draw(st.sampled_from([[], [""], ["# note"], [f"{indent}  # note"]]))
+    end = draw(st.sampled_from(["\n", "", "\n\n"]))
+    return "\n".join(lines) + end
+
+
+@settings(max_examples=300, deadline=None)
+@given(_model_texts())
+def test_generated_layouts_read_and_number_as_the_general_path(text: str) -> None:
+    import dataclasses
+
+    try:
+        expected: Theory | str = _slow(text)
+    except RacError as err:
+        expected = err.render()
+    try:
+        got: Theory | str = model_yaml.parse_model_yaml(text, "m.yaml")
+    except RacError as err:
+        got = err.render()
+    assert got == expected
+    if isinstance(got, Theory):
+        assert _index_arrays(got) == _index_arrays(dataclasses.replace(got, table=None))

@@ -9,9 +9,11 @@ from collections.abc import Sequence
 from typing import Any
 
 from rac.commands.common import CommandParser, add_command, run_values
-from rac.diagnosis import DiagnosisResult, Literal, Theory, collect, diagnose, load_theory
-from rac.diagnosis.theory import known_lookup, literal_at, parse_observations
+from rac.diagnosis import DiagnosisResult, Literal, Theory, collect, compile_theory, load_theory
+from rac.diagnosis.result import diagnose_ids
+from rac.diagnosis.theory import known_lookup, literal_at, parse_observations, plain_lines
 from rac.loader import read_text
+from rac.perf import paused_gc
 
 
 class _InOrder(argparse.Action):
@@ -77,6 +79,28 @@ def observations(args: argparse.Namespace, theory: Theory) -> tuple[Literal, ...
         else:
             literals.extend(parse_observations(read_text(value), value, theory, known))
     return collect(literals)
+
+
+def observed_ids(args: argparse.Namespace, theory: Theory) -> list[int]:
+    """:func:`observations` as atom numbers of the theory's index, for :func:`diagnose_ids`.
+
+    A file of plain literal lines (what generators write) is read in one pass straight to
+    atom numbers; anything else goes through the literal parser, with its diagnostics.
+    """
+    index = compile_theory(theory)
+    known = index.known
+    observed: list[int] = []
+    for kind, value in args.sources or ():
+        if kind == "obs":
+            observed.append(index.literal_atom(literal_at(value, theory, None, known)))
+            continue
+        text = read_text(value)
+        lines = plain_lines(text)
+        fast = index.plain_ids(lines) if lines is not None else None
+        if fast is None:
+            fast = index.observed_ids(parse_observations(text, value, theory, known))
+        observed.extend(fast)
+    return index.collect_ids(observed)
 
 
 def register(sub: Any) -> None:
@@ -177,9 +201,17 @@ def table(result: DiagnosisResult, observed: int) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    # One pause of the cyclic GC over the whole command, not one per step: each step's pause
+    # ends in a collection of everything it allocated (the whole theory, on a large model),
+    # while nothing the command builds is cyclic garbage (see rac.perf).
+    with paused_gc():
+        return _diagnose(args)
+
+
+def _diagnose(args: argparse.Namespace) -> int:
     theory = load_theory(args.model)
-    theta = observations(args, theory)
-    result = diagnose(theory, theta, args.max_card)
+    theta = observed_ids(args, theory)
+    result = diagnose_ids(theory, theta, args.max_card)
     for note in notes(result, args.max_card):
         print(note, file=sys.stderr)
     if args.json:

@@ -18,13 +18,12 @@ from collections import ChainMap
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
-from rac.diagnosis.theory import Literal, Theory
+from rac.diagnosis.theory import Key, Literal, Theory
 from rac.errors import Diagnostic, RacError, did_you_mean
 from rac.logic import FALSE, Atom
 from rac.perf import paused_gc
 
 ASSUMED = -1  # justification of an atom that was assumed, not derived
-Key = tuple[str, tuple[str, ...]]  # an atom as (predicate, args)
 
 
 @dataclass(frozen=True, slots=True)
@@ -89,6 +88,72 @@ class Index:
         # model read from a file shares one object per atom across its rules.
         self.ids: dict[Key, int] = {}
         self.keys: list[Key] = []
+        heads: Sequence[int]
+        bodies: Sequence[Sequence[int]]
+        table = theory.table
+        if table is not None and table.clauses is theory.clauses and table.props is theory.props:
+            self.keys.extend(table.keys)
+            self.ids.update(zip(table.keys, range(len(table.keys)), strict=True))
+            heads = table.heads
+            bodies = table.bodies
+        else:
+            heads, bodies = self._number(theory)
+        intern = self._intern
+        self.mentioned = len(self.keys)  # atoms below this id occur in the theory itself
+        self.nab_id = {c: intern(theory.nab, (c,)) for c in theory.components}
+        self.ab_id = {c: intern(theory.ab, (c,)) for c in theory.components}
+        self.complement = self._complements()
+        self.false_id = self.ids.get((FALSE, ()), -1)
+        self.assumption: dict[int, tuple[str, bool]] = {}  # atom -> (component, is AB)
+        for comp in theory.components:
+            self.assumption[self.nab_id[comp]] = (comp, False)
+            self.assumption[self.ab_id[comp]] = (comp, True)
+        self.head = heads
+        self.body = bodies
+        occurs: list[list[int]] = [[] for _ in self.keys]
+        for k, body in enumerate(bodies):
+            for a in body:
+                occurs[a].append(k)
+        self.occurs = occurs
+        self.facts = [k for k, body in enumerate(bodies) if not body]
+        self._by_head: list[list[int]] | None = None
+        self.size = [len(b) for b in bodies]
+        self.monotone = self._is_monotone()
+        self.all_nab = [self.nab_id[c] for c in theory.components]
+        self._normal: Full | None = None
+        self.known = KnownAtoms(self)
+
+    def _complements(self) -> list[int]:
+        """Each atom's complement (``p`` <-> ``not_p``, ``AB`` <-> ``NAB``), interning the
+        missing ones, to a fixpoint (``not_not_a`` -> ``not_a`` -> ``a``); -1 for ``false``.
+
+        In rounds over the atoms added by the previous one, with the work per atom done by
+        C loops (comprehensions, ``map``), which matters at a few hundred thousand atoms.
+        """
+        keys, ids = self.keys, self.ids
+        none = ""  # the "predicate" of a missing complement: no atom has it
+        other_of: dict[str, str] = {}
+        complement: list[int] = []
+        done = 0
+        while done < len(keys):
+            batch = keys[done:]
+            for pred in {pred for pred, _ in batch} - other_of.keys():
+                other_of[pred] = self._complement_predicate(pred) or none
+            wanted = [(other_of[pred], args) for pred, args in batch]
+            false_at = ids.get((FALSE, ()), -1) - done
+            if 0 <= false_at < len(batch):
+                wanted[false_at] = (none, ())  # false has no complement
+            found = list(map(ids.get, wanted))
+            missing = [w for w, i in zip(wanted, found, strict=True) if i is None and w[0]]
+            new = list(dict.fromkeys(missing))
+            ids.update(zip(new, range(len(keys), len(keys) + len(new)), strict=True))
+            keys.extend(new)
+            complement.extend([ids[w] if w[0] else -1 for w in wanted])
+            done += len(batch)
+        return complement
+
+    def _number(self, theory: Theory) -> tuple[list[int], list[list[int]]]:
+        """Number the atoms of the clauses (heads, then bodies) and props: the key order."""
         by_object: dict[int, int] = {}
         intern = self._intern
 
@@ -106,54 +171,7 @@ class Index:
                 bodies[k] = list(dict.fromkeys(body))  # a repeated body atom counts once
         for atom in theory.props:
             atom_id(atom)
-        self.mentioned = len(self.keys)  # atoms below this id occur in the theory itself
-        self.nab_id = {c: intern(theory.nab, (c,)) for c in theory.components}
-        self.ab_id = {c: intern(theory.ab, (c,)) for c in theory.components}
-        # Complements, to a fixpoint (not_not_a -> not_a -> a): each depends on the
-        # predicate only, so it is computed once per predicate, not once per atom.
-        other_of: dict[str, str | None] = {}
-        complement: list[int] = []
-        keys = self.keys
-        done = 0
-        while done < len(keys):
-            pred, args = keys[done]
-            if pred not in other_of:
-                other_of[pred] = self._complement_predicate(pred)
-            other = other_of[pred]
-            is_false = pred == FALSE and not args  # false has no complement
-            complement.append(-1 if other is None or is_false else intern(other, args))
-            done += 1
-        self.complement = complement
-        self.false_id = self.ids.get((FALSE, ()), -1)
-        self.assumption: dict[int, tuple[str, bool]] = {}  # atom -> (component, is AB)
-        for comp in theory.components:
-            self.assumption[self.nab_id[comp]] = (comp, False)
-            self.assumption[self.ab_id[comp]] = (comp, True)
-        self.head = heads
-        self.body = bodies
-        occurs: list[list[int]] = [[] for _ in keys]
-        for k, body in enumerate(bodies):
-            for a in body:
-                occurs[a].append(k)
-        self.occurs = occurs
-        self.facts = [k for k, body in enumerate(bodies) if not body]
-        self._by_head: list[list[int]] | None = None
-        self.size = [len(b) for b in bodies]
-        self.monotone = self._is_monotone()
-        self.all_nab = [self.nab_id[c] for c in theory.components]
-        # (predicate, args, positive) of an observation literal -> atom id
-        self.literal_ids: dict[tuple[str, tuple[str, ...], bool], int] = {}
-        prefix = theory.neg_prefix
-        skip = {theory.ab, theory.nab}
-        for i, (pred, args) in enumerate(keys):
-            if pred in skip or (pred, args) == (FALSE, ()):
-                continue
-            if pred.startswith(prefix):
-                self.literal_ids[pred.removeprefix(prefix), args, False] = i
-            else:
-                self.literal_ids[pred, args, True] = i
-        self._normal: Full | None = None
-        self.known = KnownAtoms(self)
+        return heads, bodies
 
     @property
     def by_head(self) -> list[list[int]]:
@@ -198,8 +216,19 @@ class Index:
             return False
         return not any(self.occurs[i] for i in assumption if self.keys[i][0] == ab)
 
+    def literal_id(self, predicate: str, args: tuple[str, ...], positive: bool) -> int | None:
+        """The atom of the literal ``predicate(args)`` (``not_predicate(args)`` when negative),
+        None when the theory does not know it or it is AB, NAB or ``false``."""
+        theory = self.theory
+        key = (predicate, args) if positive else (theory.neg_prefix + predicate, args)
+        if key[0] in (theory.ab, theory.nab) or key == (FALSE, ()):
+            return None
+        if positive and predicate.startswith(theory.neg_prefix):
+            return None  # a literal never carries the prefix
+        return self.ids.get(key)
+
     def literal_atom(self, literal: Literal) -> int:
-        found = self.literal_ids.get((literal.atom.predicate, literal.atom.args, literal.positive))
+        found = self.literal_id(literal.atom.predicate, literal.atom.args, literal.positive)
         if found is None:
             atom = literal.atom if literal.positive else self.theory.negate(literal.atom)
             hint = did_you_mean(str(atom), (str(Atom(*k)) for k in self.keys))
@@ -210,23 +239,64 @@ class Index:
 
     def base(self, observations: Sequence[Literal]) -> tuple[Base, tuple[int, ...]]:
         """The closure of facts ∪ Θ, and the clash it already holds (() when none)."""
+        return self.base_ids(self._observed(observations))
+
+    def base_ids(self, observed: Sequence[int]) -> tuple[Base, tuple[int, ...]]:
+        """:meth:`base` of Θ given as atom numbers (:meth:`observed_ids`)."""
         true = bytearray(len(self.keys))
         missing = list(self.size)
         seeds = [self.head[k] for k in self.facts]
-        seeds.extend(self._observed(observations))
+        seeds.extend(observed)
         stack: list[int] = []
         clash = self._seed(true, seeds, {}, stack, stop=False)
         found = self._propagate(true, missing, stack, {}, stop=False)
         return Base(true, missing), clash or found
 
     def _observed(self, observations: Sequence[Literal]) -> list[int]:
-        ids = self.literal_ids
+        # literal_id's common case inlined: tens of thousands of observations per call
+        ids, prefix, false_id = self.ids, self.theory.neg_prefix, self.false_id
+        excluded = {self.theory.ab, self.theory.nab}
         found = []
         for lit in observations:
-            atom = lit.atom
-            i = ids.get((atom.predicate, atom.args, lit.positive))
-            found.append(self.literal_atom(lit) if i is None else i)  # raises RAC040
+            pred, args = lit.atom.predicate, lit.atom.args
+            i = None
+            if pred not in excluded and not pred.startswith(prefix):
+                i = ids.get((pred, args) if lit.positive else (prefix + pred, args))
+            if i is None or i == false_id:
+                i = self.literal_atom(lit)  # the other cases, or RAC040
+            found.append(i)
         return found
+
+    def plain_ids(self, lines: Sequence[tuple[str, str, str]]) -> list[int] | None:
+        """Plain literal lines (:func:`rac.diagnosis.theory.plain_lines`) as atom numbers,
+        when every one names an observable atom the theory knows; None otherwise (the
+        literal parser then reads them, and says what is wrong and where)."""
+        ids, complement, mentioned = self.ids, self.complement, self.mentioned
+        prefix, excluded = self.theory.neg_prefix, {self.theory.ab, self.theory.nab, FALSE}
+        found: list[int] = []
+        for negation, pred, args in lines:
+            if pred in excluded or pred.startswith(prefix):
+                return None
+            key = (pred, tuple(args.split(",")) if args else ())
+            i = ids.get(key)
+            if i is None or (i >= mentioned and not 0 <= complement[i] < mentioned):
+                return None  # unknown: the theory mentions neither the atom nor its negation
+            found.append(complement[i] if negation else i)
+        return found
+
+    def collect_ids(self, observed: Sequence[int]) -> list[int]:
+        """``rac.diagnosis.theory.collect`` on atom numbers: a later observation replaces an
+        earlier one of the same atom or of its negation; kept in the order of the last."""
+        complement = self.complement
+        seen: set[int] = set()
+        kept: list[int] = []
+        for i in reversed(observed):
+            if i not in seen:
+                seen.add(i)
+                seen.add(complement[i])
+                kept.append(i)
+        kept.reverse()
+        return kept
 
     def _seed(
         self,

@@ -16,16 +16,21 @@ from __future__ import annotations
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
+from itertools import chain
 
 import yaml
 
-from rac.diagnosis.theory import Theory
+from rac.diagnosis.theory import ClauseTable, Key, Theory
 from rac.errors import Diagnostic, RacError, Span, did_you_mean
 from rac.limits import MAX_YAML_BYTES, YamlLimit, compose_yaml
 from rac.logic import AB, FALSE, NAB, NEG_PREFIX, Atom, Clause, parse_atom, parse_clause
 from rac.perf import paused_gc
 
 KEYS = ("ab", "nab", "neg_prefix", "props", "rules")
+# rac.logic's compact atom, one per line
+_COMPACT_LINES = re.compile(
+    r"^([A-Za-z_][A-Za-z0-9_]*)(?:\(([A-Za-z0-9_]+(?:,[A-Za-z0-9_]+)*)\))?$", re.MULTILINE
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -58,6 +63,18 @@ _KEY_LINE = re.compile(rf"([a-z_]+):(?: ({_PLAIN}))?")
 _ITEM_LINE = re.compile(rf"( *)- ({_PLAIN})")
 
 
+# A run of item lines at one indent (0 or 2), each ended by a newline: read in one match.
+_ITEM_BLOCKS = {width: re.compile(rf"(?:{' ' * width}- {_PLAIN}\n)+") for width in (0, 2)}
+
+
+def _item_block(text: str, pos: int, width: int) -> tuple[list[str], int]:
+    """The items of the run of ``width``-indented item lines at ``pos``, and where it ends."""
+    found = _ITEM_BLOCKS[width].match(text, pos)
+    if found is None:
+        return [], pos
+    return [line[width + 2 :] for line in text[pos : found.end() - 1].split("\n")], found.end()
+
+
 def _fast_entries(text: str, file: str) -> Entries | None:
     """The document as racc writes it, or None when it is laid out any other way."""
     if not text.isascii() or "\r" in text or "\t" in text:
@@ -82,7 +99,23 @@ def _fast_entries(text: str, file: str) -> Entries | None:
             entries.append((key, where, _list_value(file, items, lines, indent)))
         pending, items, lines = None, None, []
 
-    for number, line in enumerate(text.split("\n"), start=1):
+    all_lines = text.split("\n")
+    index, pos = 0, 0  # the line and the offset of its first character
+    while index < len(all_lines):
+        line = all_lines[index]
+        number = index + 1
+        width = 0 if line[:2] == "- " else 2 if line[:4] == "  - " else -1
+        if pending is not None and width >= 0 and (items is None or width == indent):
+            block, end = _item_block(text, pos, width)
+            if block:  # most of a model file: its rules and props, a few operations in all
+                if items is None:
+                    items, indent = [], width
+                items.extend(block)
+                lines.extend(range(number, number + len(block)))
+                index, pos = index + len(block), end
+                continue
+        index += 1
+        pos += len(line) + 1
         stripped = line.lstrip(" ")
         if not stripped or stripped[0] == "#":
             continue
@@ -212,27 +245,37 @@ def _name_problems(values: dict[str, _Value], names: dict[str, str]) -> list[Dia
 
 
 class _Atoms:
-    """Atoms parsed once per distinct text: a model names each atom in many rules."""
+    """Atoms numbered once per distinct text: a model names each atom in many rules.
+
+    Numbers follow first appearance; one :class:`Atom` object per atom, however it was
+    written (later passes key on identity).
+    """
 
     def __init__(self) -> None:
-        self.by_text: dict[str, Atom] = {}
-        self.by_key: dict[tuple[str, tuple[str, ...]], Atom] = {}
+        self.by_text: dict[str, int] = {}
+        self.by_key: dict[Key, int] = {}
+        self.atoms: list[Atom] = []
+        self.keys: list[Key] = []
 
-    def atom(self, text: str) -> Atom:
+    def number(self, text: str) -> int:
         found = self.by_text.get(text)
         if found is None:
             stripped = text.strip()
             found = self.by_text.get(stripped)
-            if found is not None:
-                self.by_text[text] = found
-                return found
-            parsed = parse_atom(stripped)  # ValueError when it is not an atom
-            key = (parsed.predicate, parsed.args)
-            # one object per atom, however it was written: later passes key on identity
-            found = self.by_text[text] = self.by_text[stripped] = self.by_key.setdefault(
-                key, parsed
-            )
+            if found is None:
+                parsed = parse_atom(stripped)  # ValueError when it is not an atom
+                key = (parsed.predicate, parsed.args)
+                found = self.by_key.get(key)
+                if found is None:
+                    found = self.by_key[key] = len(self.atoms)
+                    self.atoms.append(parsed)
+                    self.keys.append(key)
+                self.by_text[stripped] = found
+            self.by_text[text] = found
         return found
+
+    def atom(self, text: str) -> Atom:
+        return self.atoms[self.number(text)]
 
     def clause(self, text: str) -> Clause:
         """``parse_clause``, splitting at ', ' first: the layout racc writes."""
@@ -245,6 +288,50 @@ class _Atoms:
                 pass  # another layout, or not a rule: the full parser says which
         parsed = parse_clause(text)
         return Clause(tuple(self.atom(str(a)) for a in parsed.body), self.atom(str(parsed.head)))
+
+    def number_compact(self, texts: list[str]) -> bool:
+        """Number ``texts`` (distinct, in order) when every one is a compact atom (``p`` or
+        ``p(a,b)``, no blanks): one regular-expression pass over them all.  False, with
+        nothing numbered, when one is not."""
+        found = _COMPACT_LINES.findall("\n".join(texts))
+        if len(found) != len(texts):  # a match never spans lines: some text did not match
+            return False
+        by_text, by_key, atoms, keys = self.by_text, self.by_key, self.atoms, self.keys
+        for text, (pred, args) in zip(texts, found, strict=True):
+            key = (pred, tuple(args.split(",")) if args else ())
+            number = by_key.get(key)
+            if number is None:
+                number = by_key[key] = len(atoms)
+                atoms.append(Atom(*key))
+                keys.append(key)
+            by_text[text] = number
+        return True
+
+    def numbered_rules(self, items: list[str | None]) -> tuple[list[int], list[list[int]]] | None:
+        """Every rule as atom numbers, heads first and then bodies (the engine's order), when
+        every rule is in racc's layout (``a, b -> c`` of compact atoms); None otherwise."""
+        head_texts: list[str] = []
+        body_texts: list[list[str]] = []
+        for item in items:
+            if item is None:
+                return None
+            body_text, arrow, head_text = item.partition(" -> ")
+            if not arrow:
+                if not item.startswith("-> "):
+                    return None
+                body_text, head_text = "", item[3:]  # a fact
+            head_texts.append(head_text)
+            body_texts.append(body_text.split(", ") if body_text else [])
+        # Each distinct text is numbered once, in order of first appearance (heads, then
+        # bodies); every occurrence is then one dictionary look-up.
+        heads_first = dict.fromkeys(head_texts)
+        heads_first.update(dict.fromkeys(chain.from_iterable(body_texts)))
+        if not self.number_compact(list(heads_first)):
+            return None
+        by_text = self.by_text
+        heads = [by_text[text] for text in head_texts]
+        bodies = [[by_text[text] for text in body] for body in body_texts]
+        return heads, bodies
 
 
 def _assumption_problems(
@@ -265,23 +352,36 @@ def _where(value: _Value, i: int) -> Span:
     return value.item_span(i) if value.item_span else value.span
 
 
+Numbers = tuple[list[int], list[list[int]]]  # heads, bodies
+
+
 def _rules(
-    value: _Value, atoms: _Atoms, names: dict[str, str], errors: list[Diagnostic]
-) -> list[Clause]:
-    """The clauses of ``rules``; every problem in file order."""
+    value: _Value, names: dict[str, str], errors: list[Diagnostic]
+) -> tuple[list[Clause], _Atoms, Numbers | None]:
+    """The clauses of ``rules`` (every problem in file order), their atoms, and the clauses
+    as atom numbers when every rule is in racc's layout."""
+    items = _items(value, "rules", errors)
+    atoms = _Atoms()
+    numbers = atoms.numbered_rules([item for _, item in items])
     parsed: list[tuple[int, Clause | str | None]] = []
-    for i, item in _items(value, "rules", errors):
-        if item is None:
-            parsed.append((i, None))
-            continue
-        try:
-            parsed.append((i, atoms.clause(item)))
-        except ValueError as err:
-            parsed.append((i, str(err)))
+    if numbers is not None:
+        table = atoms.atoms
+        for (i, _), head, body in zip(items, *numbers, strict=True):
+            parsed.append((i, Clause(tuple([table[a] for a in body]), table[head])))
+    else:
+        atoms = _Atoms()
+        for i, item in items:
+            if item is None:
+                parsed.append((i, None))
+                continue
+            try:
+                parsed.append((i, atoms.clause(item)))
+            except ValueError as err:
+                parsed.append((i, str(err)))
     ab, nab = names["ab"], names["nab"]
     negated = {names["neg_prefix"] + ab, names["neg_prefix"] + nab}
     # checked once per distinct atom, then reported at every rule using it
-    problems = _assumption_problems(list(atoms.by_key.values()), ab, nab, negated)
+    problems = _assumption_problems(atoms.atoms, ab, nab, negated)
     clauses: list[Clause] = []
     for i, outcome in parsed:
         if outcome is None:
@@ -297,7 +397,29 @@ def _rules(
                 message = "'-> false' makes every observation inconsistent"
                 errors.append(_error(_where(value, i), message))
             clauses.append(outcome)
-    return clauses
+    return clauses, atoms, numbers
+
+
+def _unique(
+    clauses: list[Clause], props: tuple[Atom, ...], atoms: _Atoms, numbers: Numbers | None
+) -> tuple[tuple[Clause, ...], ClauseTable | None]:
+    """The distinct clauses in file order, and their table when the rules were numbered."""
+    if numbers is None:
+        return tuple(dict.fromkeys(clauses)), None
+    heads, bodies = numbers
+    first: dict[tuple[int, tuple[int, ...]], int] = {}
+    for k, key in enumerate(zip(heads, map(tuple, bodies), strict=True)):
+        first.setdefault(key, k)  # equal numbers are equal clauses: one object per atom
+    kept = list(first.values())
+    unique = tuple([clauses[k] for k in kept])
+    table = ClauseTable(
+        clauses=unique,
+        props=props,
+        keys=tuple(atoms.keys),
+        heads=tuple([heads[k] for k in kept]),
+        bodies=tuple([tuple(dict.fromkeys(bodies[k])) for k in kept]),
+    )
+    return unique, table
 
 
 def parse_model_yaml(text: str, file: str) -> Theory:
@@ -333,10 +455,11 @@ def _parse(text: str, file: str) -> Theory:
         errors.append(_error(root, "missing key 'rules'"))
     # The rules are read first (so that their atoms are known apart from the props'), but
     # the props' problems are reported first, in file order.
-    atoms = _Atoms()
     rule_errors: list[Diagnostic] = []
-    clauses = _rules(values["rules"], atoms, names, rule_errors) if "rules" in values else []
-    in_rules = list(atoms.by_key.values())
+    clauses, atoms, numbers = (
+        _rules(values["rules"], names, rule_errors) if "rules" in values else ([], _Atoms(), None)
+    )
+    in_rules = list(atoms.atoms)
     props: list[Atom] = []
     if "props" in values:
         value = values["props"]
@@ -351,14 +474,16 @@ def _parse(text: str, file: str) -> Theory:
     errors.extend(rule_errors)
     if errors:
         raise RacError(errors, text)
-    unique = tuple(dict.fromkeys(clauses))
+    distinct_props = tuple(dict.fromkeys(props))
+    unique, table = _unique(clauses, distinct_props, atoms, numbers)
     # COMPS from the distinct atoms of the rules (rac.diagnosis.theory.components_of)
     comps = {a.args[0] for a in in_rules if a.predicate in (ab, nab) and len(a.args) == 1}
     return Theory(
         clauses=unique,
-        props=tuple(dict.fromkeys(props)),
+        props=distinct_props,
         components=tuple(sorted(comps)),
         ab=ab,
         nab=nab,
         neg_prefix=names["neg_prefix"],
+        table=table,
     )

@@ -61,14 +61,21 @@ def diagnose(
 ) -> DiagnosisResult:
     """Reiter's minimal diagnoses (Definition 3.32) of Θ, searched up to ``max_card`` faults."""
     with paused_gc():  # closures of the whole model: large, short-lived and acyclic
-        return _diagnose(theory, observations, max_card)
+        return _diagnose(theory, compile_theory(theory).observed_ids(observations), max_card)
 
 
-def _diagnose(
-    theory: Theory, observations: Sequence[Literal], max_card: int | None
+def diagnose_ids(
+    theory: Theory, observed: Sequence[int], max_card: int | None = None
 ) -> DiagnosisResult:
+    """:func:`diagnose` of Θ given as atom numbers of the theory's index
+    (``compile_theory(theory).observed_ids``, ``plain_ids``)."""
+    with paused_gc():
+        return _diagnose(theory, observed, max_card)
+
+
+def _diagnose(theory: Theory, observed: Sequence[int], max_card: int | None) -> DiagnosisResult:
     index = compile_theory(theory)
-    base, clash = index.base(observations)
+    base, clash = index.base_ids(observed)
     comps = theory.components
     if clash:  # Θ contradicts the model whatever the components do: no diagnosis exists
         return DiagnosisResult(False, ((),), (), comps, False)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Container, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from rac.errors import Diagnostic, RacError, Span, did_you_mean
@@ -19,6 +19,26 @@ from rac.perf import paused_gc
 
 if TYPE_CHECKING:  # the compiler loads only for .ram/.json models
     from rac.ir import Model
+
+
+Key = tuple[str, tuple[str, ...]]  # an atom as (predicate, args)
+
+
+@dataclass(frozen=True, slots=True)
+class ClauseTable:
+    """A theory's clauses and props as atom numbers, from a reader that numbered them anyway.
+
+    Atoms are numbered in the order the engine's index numbers them itself (every clause's
+    head, then every body, then the props), so an index built from the table is the index
+    built from the clauses, without looking every atom up again.  It describes exactly the
+    ``clauses`` and ``props`` tuples it was made with; the index checks that by identity.
+    """
+
+    clauses: tuple[Clause, ...]
+    props: tuple[Atom, ...]
+    keys: tuple[Key, ...]  # atom number -> (predicate, args)
+    heads: tuple[int, ...]
+    bodies: tuple[tuple[int, ...], ...]  # each body without repeated atoms
 
 
 @dataclass(frozen=True, slots=True)
@@ -32,6 +52,8 @@ class Theory:
     nab: str = NAB
     neg_prefix: str = NEG_PREFIX
     model: Model | None = None
+    # the clauses already numbered (rac.diagnosis.model_yaml): a speed-up, never a meaning
+    table: ClauseTable | None = field(default=None, compare=False, repr=False)
 
     def negate(self, atom: Atom) -> Atom:
         """The propositional atom standing for ¬atom (``ok(x)`` <-> ``not_ok(x)``)."""
@@ -213,6 +235,22 @@ def collect(literals: Iterable[Literal]) -> tuple[Literal, ...]:
 _PLAIN_LITERAL = re.compile(
     r" *(not +)?([A-Za-z_][A-Za-z0-9_]*)(?:\(([A-Za-z0-9_]+(?:,[A-Za-z0-9_]+)*)\))? *"
 )
+
+
+# The same, one per line of a whole file, in one pass (a file of tens of thousands of lines).
+_PLAIN_LINES = re.compile(
+    r"^ *(not +)?([A-Za-z_][A-Za-z0-9_]*)(?:\(([A-Za-z0-9_]+(?:,[A-Za-z0-9_]+)*)\))? *$",
+    re.MULTILINE,
+)
+
+
+def plain_lines(text: str) -> list[tuple[str, str, str]] | None:
+    """Each line as (negation, predicate, arguments) when every line is a plain literal
+    (``ok(x)``, ``not ok(x)``: the layout of a generated file); None when any is not
+    (a comment, a blank line, another spelling), for the line-by-line reader."""
+    found: list[tuple[str, str, str]] = _PLAIN_LINES.findall(text)
+    lines = text.count("\n") + (not text.endswith("\n"))
+    return found if len(found) == lines else None  # a match never spans two lines
 
 
 def parse_observations(
