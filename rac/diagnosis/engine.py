@@ -110,11 +110,7 @@ class Index:
             self.assumption[self.ab_id[comp]] = (comp, True)
         self.head = heads
         self.body = bodies
-        occurs: list[list[int]] = [[] for _ in self.keys]
-        for k, body in enumerate(bodies):
-            for a in body:
-                occurs[a].append(k)
-        self.occurs = occurs
+        self.occurs = self._occurrences(bodies)
         self.facts = [k for k, body in enumerate(bodies) if not body]
         self._by_head: list[list[int]] | None = None
         self.size = [len(b) for b in bodies]
@@ -145,12 +141,31 @@ class Index:
                 wanted[false_at] = (none, ())  # false has no complement
             found = list(map(ids.get, wanted))
             missing = [w for w, i in zip(wanted, found, strict=True) if i is None and w[0]]
-            new = list(dict.fromkeys(missing))
-            ids.update(zip(new, range(len(keys), len(keys) + len(new)), strict=True))
-            keys.extend(new)
-            complement.extend([ids[w] if w[0] else -1 for w in wanted])
+            if missing:
+                new = list(dict.fromkeys(missing))
+                ids.update(zip(new, range(len(keys), len(keys) + len(new)), strict=True))
+                keys.extend(new)
+                found = [
+                    ids[w] if i is None and w[0] else i for w, i in zip(wanted, found, strict=True)
+                ]
+            complement.extend([-1 if i is None else i for i in found])
             done += len(batch)
         return complement
+
+    def _occurrences(self, bodies: Sequence[Sequence[int]]) -> list[Sequence[int]]:
+        """The clauses each atom occurs in the body of.  Most atoms (heads, complements)
+        occur in none and share one empty tuple: a list per atom is a hundred thousand
+        allocations on a large model, and allocation is what scales worst there."""
+        none: Sequence[int] = ()
+        occurs: list[Sequence[int]] = [none] * len(self.keys)
+        for k, body in enumerate(bodies):
+            for a in body:
+                found = occurs[a]
+                if found is none:
+                    occurs[a] = [k]
+                else:
+                    found.append(k)  # type: ignore[attr-defined]  # a list once non-empty
+        return occurs
 
     def _number(self, theory: Theory) -> tuple[list[int], list[list[int]]]:
         """Number the atoms of the clauses (heads, then bodies) and props: the key order."""
