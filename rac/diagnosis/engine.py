@@ -17,6 +17,8 @@ from __future__ import annotations
 from collections import ChainMap
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from itertools import compress, count
+from operator import itemgetter
 
 from rac.diagnosis.theory import Key, Literal, Theory
 from rac.errors import Diagnostic, RacError, did_you_mean
@@ -24,6 +26,7 @@ from rac.logic import FALSE, Atom
 from rac.perf import paused_gc
 
 ASSUMED = -1  # justification of an atom that was assumed, not derived
+_first, _second = itemgetter(0), itemgetter(1)
 
 
 @dataclass(frozen=True, slots=True)
@@ -133,18 +136,26 @@ class Index:
         done = 0
         while done < len(keys):
             batch = keys[done:]
-            for pred in {pred for pred, _ in batch} - other_of.keys():
+            preds = list(map(_first, batch))
+            for pred in set(preds) - other_of.keys():
                 other_of[pred] = self._complement_predicate(pred) or none
-            wanted = [(other_of[pred], args) for pred, args in batch]
+            wanted = list(zip(map(other_of.__getitem__, preds), map(_second, batch), strict=True))
             false_at = ids.get((FALSE, ()), -1) - done
             if 0 <= false_at < len(batch):
                 wanted[false_at] = (none, ())  # false has no complement
             found = list(map(ids.get, wanted))
             missing = [w for w, i in zip(wanted, found, strict=True) if i is None and w[0]]
-            if missing:
-                new = list(dict.fromkeys(missing))
-                ids.update(zip(new, range(len(keys), len(keys) + len(new)), strict=True))
-                keys.extend(new)
+            new = list(dict.fromkeys(missing))
+            start = len(keys)
+            ids.update(zip(new, range(start, start + len(new)), strict=True))
+            keys.extend(new)
+            if len(new) == len(missing):  # distinct: numbered in the order they are missing
+                fresh = iter(range(start, start + len(new)))
+                found = [
+                    next(fresh) if i is None and w[0] else i
+                    for w, i in zip(wanted, found, strict=True)
+                ]
+            else:
                 found = [
                     ids[w] if i is None and w[0] else i for w, i in zip(wanted, found, strict=True)
                 ]
@@ -226,10 +237,11 @@ class Index:
         hitting sets of the minimal conflicts.  Fault-mode rules break this.
         """
         ab, nab = self.theory.ab, self.theory.nab
-        assumption = {i for i, (pred, _) in enumerate(self.keys) if pred in (ab, nab)}
-        if any(h in assumption for h in self.head):
+        preds = list(map(_first, self.keys))
+        assumption = set(compress(count(), map({ab, nab}.__contains__, preds)))
+        if not assumption.isdisjoint(self.head):
             return False
-        return not any(self.occurs[i] for i in assumption if self.keys[i][0] == ab)
+        return not any(self.occurs[i] for i in compress(count(), map(ab.__eq__, preds)))
 
     def literal_id(self, predicate: str, args: tuple[str, ...], positive: bool) -> int | None:
         """The atom of the literal ``predicate(args)`` (``not_predicate(args)`` when negative),
