@@ -125,7 +125,8 @@ def layout_of(
 
 
 def _getter(path: str) -> Callable[[object], Any]:
-    parts = path.split(".")
+    """Reads a dotted path; "" is the message itself (a quaternion topic's quaternion)."""
+    parts = path.split(".") if path else []
 
     def get(msg: object) -> Any:
         for part in parts:
@@ -141,7 +142,7 @@ def row_extractor(layout: Layout) -> Callable[[object], tuple[float, ...]]:
     matrix of rows into the layout's values)."""
     scalar_getters = [_getter(p) for p in layout.scalars]
     array_getters = [_getter(p) for p in layout.arrays]
-    quat_getter = _getter(layout.quaternion) if layout.quaternion is not None else None
+    quat_getter = None if layout.quaternion is None else _getter(layout.quaternion)
 
     def extract(msg: object) -> tuple[float, ...]:
         values = [float(g(msg)) for g in scalar_getters]
