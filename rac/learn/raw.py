@@ -347,7 +347,7 @@ def row_reader(
         typename,
         layout,
         cdr=cdr,
-        max_sequence=typestore.max_sequence_length,
+        max_sequence=getattr(typestore, "max_sequence_length", 2**32 - 1),  # rosbags < 0.11
     )
     if walk is None:
         return full
