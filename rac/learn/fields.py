@@ -125,7 +125,8 @@ def layout_of(
 
 
 def _getter(path: str) -> Callable[[object], Any]:
-    parts = path.split(".")
+    """Reads a dotted path; "" is the message itself (a quaternion topic's quaternion)."""
+    parts = path.split(".") if path else []
 
     def get(msg: object) -> Any:
         for part in parts:
@@ -135,26 +136,58 @@ def _getter(path: str) -> Callable[[object], Any]:
     return get
 
 
-def extractor(layout: Layout) -> Callable[[object], tuple[float, ...]]:
-    """A function reading the layout's values from one deserialized message."""
+def row_extractor(layout: Layout) -> Callable[[object], tuple[float, ...]]:
+    """A function reading one deserialized message's row: the scalars, the arrays' means,
+    then the quaternion's x, y, z, w when angles are wanted (:func:`with_angles` turns a
+    matrix of rows into the layout's values)."""
     scalar_getters = [_getter(p) for p in layout.scalars]
     array_getters = [_getter(p) for p in layout.arrays]
-    quat_getter = _getter(layout.quaternion) if layout.quaternion else None
-    which = [EULER_FIELDS.index(e) for e in layout.euler]
+    quat_getter = None if layout.quaternion is None else _getter(layout.quaternion)
 
     def extract(msg: object) -> tuple[float, ...]:
         values = [float(g(msg)) for g in scalar_getters]
-        for g in array_getters:
-            arr = np.asarray(g(msg), dtype=np.float64)
-            finite = arr[np.isfinite(arr)]
-            values.append(float(finite.mean()) if finite.size else float("nan"))
+        values.extend(finite_mean(g(msg)) for g in array_getters)
         if quat_getter is not None:
             q = quat_getter(msg)
-            angles = euler_from_quaternion(q.x, q.y, q.z, q.w)
-            values.extend(angles[i] for i in which)
+            values.extend((float(q.x), float(q.y), float(q.z), float(q.w)))
         return tuple(values)
 
     return extract
+
+
+def extractor(layout: Layout) -> Callable[[object], tuple[float, ...]]:
+    """A function reading the layout's values from one deserialized message."""
+    row = row_extractor(layout)
+    which = [EULER_FIELDS.index(e) for e in layout.euler]
+    if not which:
+        return row
+
+    def extract(msg: object) -> tuple[float, ...]:
+        values = row(msg)
+        angles = euler_from_quaternion(*values[-4:])
+        return (*values[:-4], *(angles[i] for i in which))
+
+    return extract
+
+
+def with_angles(layout: Layout, rows: FloatArray) -> FloatArray:
+    """Rows (messages × row values, as :func:`row_extractor` reads them) -> the layout's
+    values: the quaternion's four columns become the wanted angles, computed per column
+    with the same numpy functions as :func:`euler_from_quaternion` (the same bits)."""
+    if not layout.euler:
+        return rows
+    x, y, z, w = rows[:, -4:].T
+    angles = euler_angles(x, y, z, w)
+    which = [angles[EULER_FIELDS.index(e)] for e in layout.euler]
+    out: FloatArray = np.column_stack([rows[:, :-4], *which])
+    return out
+
+
+def finite_mean(values: Any) -> float:
+    """The mean of an array's finite elements (NaN when it has none): an array's signal."""
+    arr = np.asarray(values, dtype=np.float64)
+    finite = arr[np.isfinite(arr)]
+    return float(finite.mean()) if finite.size else float("nan")
 
 
 def euler_from_quaternion(x: float, y: float, z: float, w: float) -> tuple[float, float, float]:
@@ -162,6 +195,16 @@ def euler_from_quaternion(x: float, y: float, z: float, w: float) -> tuple[float
     yaw = float(np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))
     pitch = float(np.arcsin(np.clip(2.0 * (w * y - z * x), -1.0, 1.0)))
     roll = float(np.arctan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y)))
+    return yaw, pitch, roll
+
+
+def euler_angles(
+    x: FloatArray, y: FloatArray, z: FloatArray, w: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """:func:`euler_from_quaternion` element-wise over arrays."""
+    yaw: FloatArray = np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    pitch: FloatArray = np.arcsin(np.clip(2.0 * (w * y - z * x), -1.0, 1.0))
+    roll: FloatArray = np.arctan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
     return yaw, pitch, roll
 
 

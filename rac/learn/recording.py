@@ -7,7 +7,7 @@ field values.  :func:`merge_runs` joins several runs into one training set (Algo
 from __future__ import annotations
 
 import struct
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,7 +24,8 @@ from rosbags.typesys.base import TypesysError
 from rosbags.typesys.store import Typestore
 
 from rac.errors import Diagnostic, RacError
-from rac.learn.fields import FieldSelector, FloatArray, extractor, layout_of
+from rac.learn.fields import FieldSelector, FloatArray, layout_of, with_angles
+from rac.learn.raw import row_reader
 from rac.observe.events import Message
 
 IntArray = npt.NDArray[np.int64]
@@ -173,8 +174,12 @@ def _read(
         if callerid:
             names.add(callerid.removeprefix("/"))
     layouts = {t: layout_of(fielddefs, m, t, selector) for t, m in types.items()}
-    extract: dict[str, Callable[[object], tuple[float, ...]]] = {
-        t: extractor(lay) for t, lay in layouts.items() if not lay.empty
+    # Each message's row comes straight from its bytes where the type allows (rac.learn.raw).
+    cdr = reader.is2
+    extract = {
+        t: row_reader(reader.typestore, types[t], lay, cdr=cdr, deserialize=reader.deserialize)
+        for t, lay in layouts.items()
+        if not lay.empty
     }
     stamps: dict[str, list[int]] = {t: [] for t in types}
     rows: dict[str, list[tuple[float, ...]]] = {t: [] for t in extract}
@@ -185,15 +190,15 @@ def _read(
         stamps[conn.topic].append(stamp)
         get = extract.get(conn.topic)
         if get is not None:
-            rows[conn.topic].append(get(reader.deserialize(raw, conn.msgtype)))
+            rows[conn.topic].append(get(raw))
     data = []
     for name in sorted(types):
         if not stamps[name]:
             continue
         times = np.asarray(stamps[name], dtype=np.float64) * 1e-9
         lay = layouts[name]
-        values = np.asarray(rows.get(name, []), dtype=np.float64).reshape(len(times), -1).T
-        values = np.ascontiguousarray(values)
+        matrix = np.asarray(rows.get(name, []), dtype=np.float64).reshape(len(times), -1)
+        values = np.ascontiguousarray(with_angles(lay, matrix).T)
         for i, f in enumerate(lay.fields):
             if f in _WRAPPING and f in lay.euler and values.shape[1] > 1:
                 values[i] = np.unwrap(values[i])
