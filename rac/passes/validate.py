@@ -16,6 +16,7 @@ from rac.errors import Diagnostic, Severity, Span, did_you_mean
 from rac.ir import FieldRef, Model, Name
 from rac.limits import MAX_NAME, name_problem, number_problem, shown_name
 from rac.logic import integral_arg, mangle
+from rac.passes.loops import find_loops, is_exact
 from rac.passes.observers import gobs_params
 
 Rule = Callable[[Model], Iterable[Diagnostic]]
@@ -400,7 +401,6 @@ def check_usage(model: Model) -> Iterator[Diagnostic]:
 
 def check_loops(model: Model) -> Iterator[Diagnostic]:
     """A note naming each feedback loop; a warning when it is too large for the exact rule."""
-    from rac.passes.loops import find_loops, is_exact  # networkx: only when validating
 
     declared = model.topic_by_name()
     for loop in find_loops(model):
