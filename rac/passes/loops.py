@@ -83,10 +83,13 @@ def topic_graph(model: Model) -> dict[str, list[str]]:
     """Topics, each with its successors: an edge input → output for every ``publishes
     output from input`` (an input or output nobody declared is a vertex too)."""
     graph: dict[str, list[str]] = {t.name.value: [] for t in model.topics}
-    for pub in publications(model):
-        graph.setdefault(pub.topic, [])
-        for i in pub.inputs:
-            graph.setdefault(i, []).append(pub.topic)
+    setdefault = graph.setdefault
+    for node in model.nodes:
+        for pub in node.publishes:
+            topic = pub.topic.value
+            setdefault(topic, [])
+            for i in pub.affected_by:
+                setdefault(i.value, []).append(topic)
     return graph
 
 
@@ -138,12 +141,15 @@ def find_loops(model: Model) -> tuple[Loop, ...]:
     cached = model._memo.get("loops")
     if isinstance(cached, tuple):
         return cached
+    # A topic cannot feed itself (RAC021): a loop has two topics or more.
+    found = [scc for scc in strongly_connected(topic_graph(model)) if len(scc) > 1]
+    if not found:  # the usual case: no publication needs looking at again
+        model._memo["loops"] = ()
+        return ()
     order = {t.name.value: k for k, t in enumerate(model.topics)}
     pubs = publications(model)
     loops = []
-    for scc in strongly_connected(topic_graph(model)):
-        if len(scc) < 2:
-            continue  # a topic cannot feed itself (RAC021)
+    for scc in found:
         topics = tuple(sorted(scc, key=lambda t: (order.get(t, len(order)), t)))
         inside = [p for p in pubs if p.topic in scc and any(i in scc for i in p.inputs)]
         loops.append(Loop(topics, tuple(inside)))

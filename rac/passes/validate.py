@@ -259,29 +259,34 @@ def check_channels(model: Model) -> Iterator[Diagnostic]:
 
 def check_ranges(model: Model) -> Iterator[Diagnostic]:
     """Every number within the documented limits (RAC007), whichever format it came from."""
-    found: list[tuple[str, float | int | None, Span | None]] = []
+    # (what, its name, value, span): ``what.format(name)`` is written only for a bad number,
+    # as a large model has tens of thousands of numbers and nearly never a bad one.
+    found: list[tuple[str, str, float | int | None, Span | None]] = []
     for t in model.topics:
         name = t.name.value
         found += [
-            (f"topic '{name}': rate", t.rate_hz, t.span),
-            (f"topic '{name}': tolerance", t.rate_tolerance_hz, t.span),
-            (f"topic '{name}': window", t.window_s, t.span),
-            (f"topic '{name}': mismatch", t.mismatch_threshold, t.span),
+            ("topic '{}': rate", name, t.rate_hz, t.span),
+            ("topic '{}': tolerance", name, t.rate_tolerance_hz, t.span),
+            ("topic '{}': window", name, t.window_s, t.span),
+            ("topic '{}': mismatch", name, t.mismatch_threshold, t.span),
         ]
     for n in model.nodes:
+        name, limits = n.name.value, n.limits
         found += [
-            (f"node '{n.name.value}': cpu limit", n.limits.cpu, n.limits.span),
-            (f"node '{n.name.value}': memory limit (in bytes)", n.limits.mem, n.limits.span),
+            ("node '{}': cpu limit", name, limits.cpu, limits.span),
+            ("node '{}': memory limit (in bytes)", name, limits.mem, limits.span),
         ]
-    found += [(f"hardware '{h.name.value}': channel", h.channel, h.span) for h in model.hardware]
-    found += [("an interval's 'within' bound", iv.max_diff, iv.span) for iv in model.intervals]
+    found += [("hardware '{}': channel", h.name.value, h.channel, h.span) for h in model.hardware]
+    found += [("an interval's 'within' bound", "", iv.max_diff, iv.span) for iv in model.intervals]
     bad = False
-    for what, value, span in found:
-        problem = number_problem(value) if value is not None else None
-        if value is not None and problem is not None:
+    for what, name, value, span in found:
+        if value is None:
+            continue
+        problem = number_problem(value)
+        if problem is not None:
             bad = True
             shown = f"{value:g}" if abs(value) < 1e300 else "(a huge number)"
-            yield _error("RAC007", f"{what} {shown} is {problem}", span)
+            yield _error("RAC007", f"{what.format(name)} {shown} is {problem}", span)
     if bad:
         return
     for t in model.topics:  # a tiny rate (or rate - tolerance) has no finite period
