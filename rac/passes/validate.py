@@ -23,6 +23,8 @@ Rule = Callable[[Model], Iterable[Diagnostic]]
 
 # ROS graph resource names (ROS 1 and 2): segments start with a letter.
 _ROS_NAME = re.compile(r"/?[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*")
+# Names one a line, each a ROS name.
+_ROS_NAMES = re.compile(r"(?:/?[A-Za-z][A-Za-z0-9_]*(?:/[A-Za-z][A-Za-z0-9_]*)*\n)*")
 _DEVICE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_\-]*")
 
 
@@ -36,14 +38,17 @@ def _warning(code: str, message: str, span: Span | None, hint: str | None = None
 
 def check_names(model: Model) -> Iterator[Diagnostic]:
     """Node and topic names are ROS names; hardware and the robot are identifiers."""
-    for name, kind in [
-        *((n.name, "node") for n in model.nodes),
-        *((t.name, "topic") for t in model.topics),
-    ]:
-        if not _ROS_NAME.fullmatch(name.value):
-            hint = "a ROS name is segments of letters, digits and '_' separated by '/', "
-            hint += "each starting with a letter; private '~' names must be written in full"
-            yield _error("RAC028", f"invalid ROS {kind} name '{name.value}'", name.span, hint)
+    ros_names = [*(n.name for n in model.nodes), *(t.name for t in model.topics)]
+    # All valid (the usual case) in one regex call over the names one a line, rather than
+    # one call per name; any doubt and each name is looked at.
+    lines = "".join([f"{n.value}\n" for n in ros_names])
+    if lines.count("\n") != len(ros_names) or _ROS_NAMES.fullmatch(lines) is None:
+        kinds = ["node"] * len(model.nodes) + ["topic"] * len(model.topics)
+        for name, kind in zip(ros_names, kinds, strict=True):
+            if not _ROS_NAME.fullmatch(name.value):
+                hint = "a ROS name is segments of letters, digits and '_' separated by '/', "
+                hint += "each starting with a letter; private '~' names must be written in full"
+                yield _error("RAC028", f"invalid ROS {kind} name '{name.value}'", name.span, hint)
     for name, kind in [(model.name, "robot"), *((h.name, "hardware") for h in model.hardware)]:
         if not _DEVICE_NAME.fullmatch(name.value):
             hint = "use letters, digits, '_' and '-', starting with a letter or '_'"
@@ -66,18 +71,24 @@ def _check_name_sets(model: Model) -> Iterator[Diagnostic]:
         if len(name.value) > MAX_NAME:
             message = f"name {shown_name(name.value)} is too long (at most {MAX_NAME} characters)"
             yield _error("RAC008", message, name.span)
-    typed: list[tuple[str, Name]] = [
-        *(("field", f) for t in model.topics for f in t.fields),
-        *(("device", d) for n in model.nodes for d in n.diagnostics),
+    typed: list[tuple[str, str, Span | None]] = [
+        *(("field", f.value, f.span) for t in model.topics for f in t.fields),
+        *(("device", d.value, d.span) for n in model.nodes for d in n.diagnostics),
     ]
     typed.extend(
-        ("message type", Name(t.msg_type, t.span)) for t in model.topics if t.msg_type is not None
+        ("message type", t.msg_type, t.span) for t in model.topics if t.msg_type is not None
     )
-    for kind, name in typed:
-        problem = name_problem(kind, name.value)
+    # Each distinct name checked once: a few field names and message types recur thousands
+    # of times in a large model.
+    problems: dict[tuple[str, str], str | None] = {}
+    for kind, value, span in typed:
+        key = (kind, value)
+        if key in problems:
+            problem = problems[key]
+        else:
+            problem = problems[key] = name_problem(kind, value)
         if problem is not None:
-            message = f"{kind} name {shown_name(name.value)} {problem}"
-            yield _error("RAC008", message, name.span)
+            yield _error("RAC008", f"{kind} name {shown_name(value)} {problem}", span)
 
 
 def check_duplicates(model: Model) -> Iterator[Diagnostic]:
