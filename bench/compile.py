@@ -9,8 +9,9 @@ node subscribing a few topics and publishing one or two with the inputs that aff
 reported on /diagnostics, and related and interval field pairs.  The models are written as
 ``.ram`` text by the formatter, then timed through the same steps as ``racc compile``:
 parse, validate, derive (RBM and observers), and emit every target but the SVG, which is
-Graphviz's time, not ours.  The figures are printed, never asserted: the issue's bar is a
-10,000-node total under 3 s and a 10k/1k ratio of at most 12.
+Graphviz's time, not ours.  The figures are printed, never asserted: the first bar was a
+10,000-node end to end under 3 s and a 10k/1k ratio of at most 12; the current one (issue 14)
+is under 1.5 s with the same ratio, in every run.
 """
 
 from __future__ import annotations
@@ -43,6 +44,7 @@ from rac.ir import (
     Topic,
 )
 from rac.parse import parse_ram
+from rac.perf import paused_gc
 from rac.pipeline import Compiled, compile_model
 from rac.targets import EmitOptions, emit_all, targets
 
@@ -51,6 +53,11 @@ T = TypeVar("T")
 FIELDS = ("header.stamp", "x", "y", "yaw", "value")
 TYPES = ("sensor_msgs/Imu", "nav_msgs/Odometry", "sensor_msgs/LaserScan", "std_msgs/Float64")
 RATES = (5.0, 10.0, 20.0, 30.0, 50.0, 100.0)
+
+# The bars on the 10,000-node end to end (seconds) and on its ratio to the 1,000-node one.
+FIRST_BAR = 3.0
+BAR = 1.5  # issue 14
+RATIO_BAR = 12.0
 
 
 def synthetic_model(nodes: int, seed: int = 1) -> Model:
@@ -147,8 +154,8 @@ def compile_once(text: str) -> tuple[dict[str, float], Compiled]:
     """One compile of ``text`` through the steps of ``racc compile`` but the SVG, timed.
 
     The steps are timed one by one (each emitter on its own, for the breakdown); then the
-    same compile runs again in one go, as ``racc compile`` runs it (``rac.targets.emit_all``),
-    timed end to end on the wall clock.
+    same compile runs again in one go, as ``racc compile`` runs it (``rac.targets.emit_all``,
+    under one pause of the cyclic GC), timed end to end on the wall clock.
     """
     times: dict[str, float] = {}
     gc.collect()
@@ -164,11 +171,14 @@ def compile_once(text: str) -> tuple[dict[str, float], Compiled]:
     times["sum of steps"] = times["parse"] + times["validate + derive"] + times["emit"]
     outputs.clear()
     gc.collect()
-    start = time.perf_counter()
-    again = compile_model(parse_ram(text, "synthetic.ram"))
-    emitted = emit_all(again, options)
-    times["end to end"] = time.perf_counter() - start
-    del emitted, again
+    # As racc compile runs it (rac.commands.compile): the cyclic GC paused over the whole
+    # compile, the outputs dropped before it resumes.
+    with paused_gc():
+        start = time.perf_counter()
+        again = compile_model(parse_ram(text, "synthetic.ram"))
+        emitted = emit_all(again, options)
+        times["end to end"] = time.perf_counter() - start
+        del emitted, again
     return times, compiled
 
 
@@ -231,9 +241,12 @@ def main() -> int:
             del compiled, model
     if 1000 in totals and 10000 in totals:
         ratio = totals[10000] / totals[1000]
-        print(f"10k/1k end-to-end time ratio: {ratio:.2f} (bar: <= 12)")
-        verdict = "under" if totals[10000] < 3.0 else "OVER"
-        print(f"10k end to end: {totals[10000]:.2f} s ({verdict} the 3 s bar)")
+        verdict = "within" if ratio <= RATIO_BAR else "OVER"
+        print(f"10k/1k end-to-end time ratio: {ratio:.2f} ({verdict} the bar: <= {RATIO_BAR:g})")
+        total = totals[10000]
+        for bar, what in ((FIRST_BAR, "first bar"), (BAR, "bar of issue 14")):
+            verdict = "under" if total < bar else "OVER"
+            print(f"10k end to end: {total:.2f} s ({verdict} the {bar:g} s {what})")
     return 0
 
 

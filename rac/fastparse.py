@@ -191,7 +191,17 @@ _ITEM = _compile(r"[^ \t\f\r,]+")
 
 
 # The one-line shortcuts build spans and names with the IR's own constructors.
-_span, _name = Span, Name
+_span = Span
+
+
+def _name(value: str, span: Span) -> Name:
+    """A name whose text is interned: a topic named in ten places is then one string, so
+    the passes' many dict and set lookups by name find it by identity (and a large model
+    takes less memory)."""
+    return Name(_intern(value), span)
+
+
+_intern = sys.intern
 
 
 def _first_limits(run: str) -> tuple[float | None, int | None]:

@@ -22,7 +22,7 @@ from rac.diagnosis.theory import Theory
 from rac.errors import RacError, Severity
 from rac.ir import Hardware, Model, Name, Node, Publication, Topic
 from rac.logic import Atom, mangle
-from rac.passes.loops import find_loops
+from rac.passes.loops import find_loops, strongly_connected
 from rac.pipeline import compile_model
 from rac.targets import EmitOptions
 from rac.targets.model_yaml import emit_model_yaml
@@ -155,3 +155,21 @@ def test_loop_rule_matches_brute_force(seed: int) -> None:
             obs,
             by_arg,
         )
+
+
+@pytest.mark.parametrize("seed", range(60))
+def test_strongly_connected_matches_networkx(seed: int) -> None:
+    """Our Tarjan against networkx's components on random graphs, self-loops and
+    repeated edges included."""
+    import networkx as nx
+
+    rng = random.Random(seed)
+    size = rng.randint(1, 40)
+    graph: dict[str, list[str]] = {str(v): [] for v in range(size)}
+    for _ in range(rng.randint(0, 90)):
+        graph[str(rng.randrange(size))].append(str(rng.randrange(size)))
+    reference: nx.DiGraph = nx.DiGraph()
+    reference.add_nodes_from(graph)
+    reference.add_edges_from((a, b) for a, succ in graph.items() for b in succ)
+    ours = sorted(sorted(c) for c in strongly_connected(graph))
+    assert ours == sorted(sorted(c) for c in nx.strongly_connected_components(reference))

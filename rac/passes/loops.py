@@ -26,10 +26,8 @@ from __future__ import annotations
 
 import functools
 import itertools
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
-
-import networkx as nx
 
 from rac.ir import Model
 from rac.logic import Atom, Clause, mangle
@@ -81,14 +79,61 @@ def publications(model: Model) -> tuple[Pub, ...]:
     )
 
 
-def topic_graph(model: Model) -> nx.DiGraph:
-    """Topics, with an edge input → output for every ``publishes output from input``."""
-    graph: nx.DiGraph = nx.DiGraph()
-    graph.add_nodes_from(t.name.value for t in model.topics)
-    for pub in publications(model):
-        graph.add_node(pub.topic)
-        graph.add_edges_from((i, pub.topic) for i in pub.inputs)
+def topic_graph(model: Model) -> dict[str, list[str]]:
+    """Topics, each with its successors: an edge input → output for every ``publishes
+    output from input`` (an input or output nobody declared is a vertex too)."""
+    graph: dict[str, list[str]] = {t.name.value: [] for t in model.topics}
+    setdefault = graph.setdefault
+    for node in model.nodes:
+        for pub in node.publishes:
+            topic = pub.topic.value
+            setdefault(topic, [])
+            for i in pub.affected_by:
+                setdefault(i.value, []).append(topic)
     return graph
+
+
+def strongly_connected(graph: Mapping[str, Iterable[str]]) -> list[set[str]]:
+    """The strongly connected components of ``graph`` (vertex -> successors; every successor
+    is a vertex), by Tarjan's algorithm without recursion: linear, and no graph library to
+    import or to build on a model of ten thousand nodes."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    components: list[set[str]] = []
+    for root in graph:
+        if root in index:
+            continue
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        on_stack.add(root)
+        work = [(root, iter(graph[root]))]
+        while work:
+            vertex, successors = work[-1]
+            for succ in successors:
+                if succ not in index:
+                    index[succ] = low[succ] = len(index)
+                    stack.append(succ)
+                    on_stack.add(succ)
+                    work.append((succ, iter(graph[succ])))
+                    break
+                if succ in on_stack and index[succ] < low[vertex]:
+                    low[vertex] = index[succ]
+            else:
+                work.pop()
+                if work and low[vertex] < low[work[-1][0]]:
+                    low[work[-1][0]] = low[vertex]
+                if low[vertex] == index[vertex]:
+                    component: set[str] = set()
+                    while True:
+                        member = stack.pop()
+                        on_stack.discard(member)
+                        component.add(member)
+                        if member == vertex:
+                            break
+                    components.append(component)
+    return components
 
 
 def find_loops(model: Model) -> tuple[Loop, ...]:
@@ -96,12 +141,15 @@ def find_loops(model: Model) -> tuple[Loop, ...]:
     cached = model._memo.get("loops")
     if isinstance(cached, tuple):
         return cached
+    # A topic cannot feed itself (RAC021): a loop has two topics or more.
+    found = [scc for scc in strongly_connected(topic_graph(model)) if len(scc) > 1]
+    if not found:  # the usual case: no publication needs looking at again
+        model._memo["loops"] = ()
+        return ()
     order = {t.name.value: k for k, t in enumerate(model.topics)}
     pubs = publications(model)
     loops = []
-    for scc in nx.strongly_connected_components(topic_graph(model)):
-        if len(scc) < 2:
-            continue  # a topic cannot feed itself (RAC021)
+    for scc in found:
         topics = tuple(sorted(scc, key=lambda t: (order.get(t, len(order)), t)))
         inside = [p for p in pubs if p.topic in scc and any(i in scc for i in p.inputs)]
         loops.append(Loop(topics, tuple(inside)))
@@ -135,10 +183,12 @@ def supports(loop: Loop) -> Iterator[tuple[tuple[str, ...], tuple[Pub, ...]]]:
             if any(not o for o in options):
                 continue
             for choice in itertools.product(*options):
-                graph: nx.DiGraph = nx.DiGraph()
-                graph.add_nodes_from(subset)
-                graph.add_edges_from((i, p.topic) for p in choice for i in p.inputs if i in inside)
-                if nx.is_strongly_connected(graph):
+                graph: dict[str, list[str]] = {t: [] for t in subset}
+                for p in choice:
+                    for i in p.inputs:
+                        if i in inside:
+                            graph[i].append(p.topic)
+                if len(strongly_connected(graph)) == 1:
                     yield subset, tuple(choice)
 
 

@@ -16,12 +16,15 @@ from rac.errors import Diagnostic, Severity, Span, did_you_mean
 from rac.ir import FieldRef, Model, Name
 from rac.limits import MAX_NAME, name_problem, number_problem, shown_name
 from rac.logic import integral_arg, mangle
+from rac.passes.loops import find_loops, is_exact
 from rac.passes.observers import gobs_params
 
 Rule = Callable[[Model], Iterable[Diagnostic]]
 
 # ROS graph resource names (ROS 1 and 2): segments start with a letter.
 _ROS_NAME = re.compile(r"/?[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*")
+# Names one a line, each a ROS name.
+_ROS_NAMES = re.compile(r"(?:/?[A-Za-z][A-Za-z0-9_]*(?:/[A-Za-z][A-Za-z0-9_]*)*\n)*")
 _DEVICE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_\-]*")
 
 
@@ -35,14 +38,17 @@ def _warning(code: str, message: str, span: Span | None, hint: str | None = None
 
 def check_names(model: Model) -> Iterator[Diagnostic]:
     """Node and topic names are ROS names; hardware and the robot are identifiers."""
-    for name, kind in [
-        *((n.name, "node") for n in model.nodes),
-        *((t.name, "topic") for t in model.topics),
-    ]:
-        if not _ROS_NAME.fullmatch(name.value):
-            hint = "a ROS name is segments of letters, digits and '_' separated by '/', "
-            hint += "each starting with a letter; private '~' names must be written in full"
-            yield _error("RAC028", f"invalid ROS {kind} name '{name.value}'", name.span, hint)
+    ros_names = [*(n.name for n in model.nodes), *(t.name for t in model.topics)]
+    # All valid (the usual case) in one regex call over the names one a line, rather than
+    # one call per name; any doubt and each name is looked at.
+    lines = "".join([f"{n.value}\n" for n in ros_names])
+    if lines.count("\n") != len(ros_names) or _ROS_NAMES.fullmatch(lines) is None:
+        kinds = ["node"] * len(model.nodes) + ["topic"] * len(model.topics)
+        for name, kind in zip(ros_names, kinds, strict=True):
+            if not _ROS_NAME.fullmatch(name.value):
+                hint = "a ROS name is segments of letters, digits and '_' separated by '/', "
+                hint += "each starting with a letter; private '~' names must be written in full"
+                yield _error("RAC028", f"invalid ROS {kind} name '{name.value}'", name.span, hint)
     for name, kind in [(model.name, "robot"), *((h.name, "hardware") for h in model.hardware)]:
         if not _DEVICE_NAME.fullmatch(name.value):
             hint = "use letters, digits, '_' and '-', starting with a letter or '_'"
@@ -65,18 +71,24 @@ def _check_name_sets(model: Model) -> Iterator[Diagnostic]:
         if len(name.value) > MAX_NAME:
             message = f"name {shown_name(name.value)} is too long (at most {MAX_NAME} characters)"
             yield _error("RAC008", message, name.span)
-    typed: list[tuple[str, Name]] = [
-        *(("field", f) for t in model.topics for f in t.fields),
-        *(("device", d) for n in model.nodes for d in n.diagnostics),
+    typed: list[tuple[str, str, Span | None]] = [
+        *(("field", f.value, f.span) for t in model.topics for f in t.fields),
+        *(("device", d.value, d.span) for n in model.nodes for d in n.diagnostics),
     ]
     typed.extend(
-        ("message type", Name(t.msg_type, t.span)) for t in model.topics if t.msg_type is not None
+        ("message type", t.msg_type, t.span) for t in model.topics if t.msg_type is not None
     )
-    for kind, name in typed:
-        problem = name_problem(kind, name.value)
+    # Each distinct name checked once: a few field names and message types recur thousands
+    # of times in a large model.
+    problems: dict[tuple[str, str], str | None] = {}
+    for kind, value, span in typed:
+        key = (kind, value)
+        if key in problems:
+            problem = problems[key]
+        else:
+            problem = problems[key] = name_problem(kind, value)
         if problem is not None:
-            message = f"{kind} name {shown_name(name.value)} {problem}"
-            yield _error("RAC008", message, name.span)
+            yield _error("RAC008", f"{kind} name {shown_name(value)} {problem}", span)
 
 
 def check_duplicates(model: Model) -> Iterator[Diagnostic]:
@@ -258,29 +270,34 @@ def check_channels(model: Model) -> Iterator[Diagnostic]:
 
 def check_ranges(model: Model) -> Iterator[Diagnostic]:
     """Every number within the documented limits (RAC007), whichever format it came from."""
-    found: list[tuple[str, float | int | None, Span | None]] = []
+    # (what, its name, value, span): ``what.format(name)`` is written only for a bad number,
+    # as a large model has tens of thousands of numbers and nearly never a bad one.
+    found: list[tuple[str, str, float | int | None, Span | None]] = []
     for t in model.topics:
         name = t.name.value
         found += [
-            (f"topic '{name}': rate", t.rate_hz, t.span),
-            (f"topic '{name}': tolerance", t.rate_tolerance_hz, t.span),
-            (f"topic '{name}': window", t.window_s, t.span),
-            (f"topic '{name}': mismatch", t.mismatch_threshold, t.span),
+            ("topic '{}': rate", name, t.rate_hz, t.span),
+            ("topic '{}': tolerance", name, t.rate_tolerance_hz, t.span),
+            ("topic '{}': window", name, t.window_s, t.span),
+            ("topic '{}': mismatch", name, t.mismatch_threshold, t.span),
         ]
     for n in model.nodes:
+        name, limits = n.name.value, n.limits
         found += [
-            (f"node '{n.name.value}': cpu limit", n.limits.cpu, n.limits.span),
-            (f"node '{n.name.value}': memory limit (in bytes)", n.limits.mem, n.limits.span),
+            ("node '{}': cpu limit", name, limits.cpu, limits.span),
+            ("node '{}': memory limit (in bytes)", name, limits.mem, limits.span),
         ]
-    found += [(f"hardware '{h.name.value}': channel", h.channel, h.span) for h in model.hardware]
-    found += [("an interval's 'within' bound", iv.max_diff, iv.span) for iv in model.intervals]
+    found += [("hardware '{}': channel", h.name.value, h.channel, h.span) for h in model.hardware]
+    found += [("an interval's 'within' bound", "", iv.max_diff, iv.span) for iv in model.intervals]
     bad = False
-    for what, value, span in found:
-        problem = number_problem(value) if value is not None else None
-        if value is not None and problem is not None:
+    for what, name, value, span in found:
+        if value is None:
+            continue
+        problem = number_problem(value)
+        if problem is not None:
             bad = True
             shown = f"{value:g}" if abs(value) < 1e300 else "(a huge number)"
-            yield _error("RAC007", f"{what} {shown} is {problem}", span)
+            yield _error("RAC007", f"{what.format(name)} {shown} is {problem}", span)
     if bad:
         return
     for t in model.topics:  # a tiny rate (or rate - tolerance) has no finite period
@@ -400,7 +417,6 @@ def check_usage(model: Model) -> Iterator[Diagnostic]:
 
 def check_loops(model: Model) -> Iterator[Diagnostic]:
     """A note naming each feedback loop; a warning when it is too large for the exact rule."""
-    from rac.passes.loops import find_loops, is_exact  # networkx: only when validating
 
     declared = model.topic_by_name()
     for loop in find_loops(model):

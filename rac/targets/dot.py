@@ -14,7 +14,6 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
-from xml.sax.saxutils import escape
 
 from rac.fmt import format_limits, format_number
 from rac.ir import Interval, Model, Node, Related, Topic
@@ -51,7 +50,9 @@ def quote(text: str) -> str:
 
 def html_text(text: str) -> str:
     """Text for a Graphviz HTML-like label (XML; a line break is ``<BR/>``)."""
-    return escape(text, {'"': "&quot;"}).replace("\n", '<BR ALIGN="LEFT"/>')
+    # xml.sax.saxutils.escape's replacements, without its import (urllib: 30 ms of start-up).
+    escaped = text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+    return escaped.replace('"', "&quot;").replace("\n", '<BR ALIGN="LEFT"/>')
 
 
 def _label(*lines: str) -> str:

@@ -6,7 +6,6 @@ import functools
 import re
 from collections.abc import Iterable
 from typing import Any
-from xml.sax.saxutils import quoteattr
 
 import jinja2
 
@@ -18,6 +17,8 @@ def xmlattr(value: object) -> str:
     text = str(value)
     if XML_SPECIAL.search(text) is None:
         return f'"{text}"'
+    from xml.sax.saxutils import quoteattr  # imports urllib (30 ms): only when needed
+
     return quoteattr(text)
 
 
