@@ -16,9 +16,16 @@ Issue 14's figures: ``--split-check N`` plans the N-component power-up in indepe
 (rac.repair.split, batches of ``--batch`` components) and validates the joined plan with
 unified-planning against the whole problem's PDDL; ``--scenario-10k`` times
 ``racc scenario model.yaml power-up`` end to end, in a fresh process, on bench/compile.py's
-10,000-node robot (the issue's bar: under 60 s).  There is no peer figure for the repair:
-pyperplan reads only STRIPS, and the repair domain needs negative, universal and
-conditional preconditions and effects (see docs/repair.md).
+10,000-node robot (the issue's bar: under 60 s).
+
+The peer: ``--peer pyperplan`` also compiles each problem to STRIPS with unified-planning's
+compilers (bench/strips.py: quantifiers removed, grounded, negative preconditions made
+complement fluents) and runs pyperplan on it (``--pyperplan-search``, enforced hill-climbing
+on h_FF by default) under the same ``--timeout``, printing its figures under racc's: the
+compilation, pyperplan's wall clock and CPU time, the plan length, and whether its plan, read
+back to the repair domain's actions, passes racc's check and unified-planning's validator
+against the original problem.  pyperplan is not a racc dependency:
+``.venv/bin/pip install pyperplan``.
 """
 
 from __future__ import annotations
@@ -35,6 +42,9 @@ from rac.diagnosis import Theory, diagnose
 from rac.ir import Hardware, Model, Name, Node, Publication, Topic
 from rac.pipeline import compile_model
 from rac.repair import (
+    InapplicableStep,
+    NoRepairPlan,
+    RepairProblem,
     check_plan,
     make_problem,
     render_problem,
@@ -84,11 +94,27 @@ def main() -> int:
     parser.add_argument("--split-check", type=int, metavar="N", help="plan N in parts, validate")
     parser.add_argument("--batch", type=int, default=100, help="--split-check's batch size")
     parser.add_argument("--scenario-10k", action="store_true", help="racc scenario, 10k nodes")
+    parser.add_argument("--peer", choices=["pyperplan"], help="also run a peer planner")
+    parser.add_argument(
+        "--pyperplan-search", default="ehs", help="pyperplan's -s (ehs, gbf, astar...)"
+    )
     args = parser.parse_args()
     if args.split_check:
         return split_check(args.split_check, args.batch, args.timeout)
     if args.scenario_10k:
         return scenario_10k()
+    if args.peer:
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        from strips import INSTALL_HINT, pyperplan_command
+
+        if pyperplan_command() is None:
+            print(f"--peer pyperplan: {INSTALL_HINT}; racc's figures only")
+            args.peer = None
+        else:
+            print(
+                "peer rows: problem gen = the STRIPS compilation (unified-planning), "
+                "check = racc's check and unified-planning's validator of the plan read back"
+            )
     print(
         f"{'comps':>6} {'problem gen':>12} {'planner wall':>13} {'planner cpu':>12} "
         f"{'check':>8} {'plan':>5}  diagnosis"
@@ -123,7 +149,41 @@ def main() -> int:
             f"{cpu:>10.2f} s "
             f"{check * 1000:>5.1f} ms {len(plan):>5}  {note}"
         )
+        if args.peer:
+            peer(problem, domain, text, args.timeout, args.pyperplan_search)
     return 0
+
+
+def peer(problem: RepairProblem, domain: str, text: str, timeout: float, search: str) -> None:
+    """pyperplan on the STRIPS compilation, one line under racc's: same columns, the
+    compilation in place of the problem generation, and the plan's validity."""
+    from strips import compile_to_strips, run_pyperplan
+
+    from rac.repair.validate import validate_plan
+
+    strips = compile_to_strips(domain, text)
+    run = run_pyperplan(strips, timeout, search=search)
+    size = f"STRIPS {strips.actions} actions, {strips.facts} facts"
+    if run.plan_text is None:
+        print(
+            f"{'peer':>6} {strips.seconds:>10.1f} s {run.seconds:>11.2f} s {run.cpu:>10.2f} s "
+            f"{'':>8} {'-':>5}  pyperplan -s {search}: {run.why}; {size}"
+        )
+        return
+    names = problem.component_of()
+    plan = tuple((s[0], *(names[a] for a in s[1:])) for s in strips.plan_back(run.plan_text))
+    start = time.perf_counter()
+    try:
+        check_plan(problem, plan)
+        validate_plan(domain, text, problem, plan)
+        verdict = "valid"
+    except (InapplicableStep, NoRepairPlan) as err:
+        verdict = f"INVALID ({err})"
+    check = time.perf_counter() - start
+    print(
+        f"{'peer':>6} {strips.seconds:>10.1f} s {run.seconds:>11.2f} s {run.cpu:>10.2f} s "
+        f"{check:>6.1f} s {len(plan):>5}  pyperplan -s {search}: {verdict}; {size}"
+    )
 
 
 def split_check(size: int, batch: int, timeout: float) -> int:
