@@ -199,6 +199,8 @@ def _index_arrays(theory: Theory) -> tuple[object, ...]:
         [index.literal_id(p, a, v) for p, a in index.keys for v in (True, False)],
         index.facts,
         index.monotone,
+        dict(index.ids),
+        index.assumption,
     )
 
 

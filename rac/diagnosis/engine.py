@@ -17,7 +17,7 @@ from __future__ import annotations
 from collections import ChainMap
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from itertools import compress, count
+from itertools import compress, count, repeat
 from operator import itemgetter
 
 from rac.diagnosis.theory import Key, Literal, Theory
@@ -96,21 +96,23 @@ class Index:
         table = theory.table
         if table is not None and table.clauses is theory.clauses and table.props is theory.props:
             self.keys.extend(table.keys)
-            self.ids.update(zip(table.keys, range(len(table.keys)), strict=True))
+            self.ids = table.ids.copy()  # the reader's own look-up: a copy, not a rehash
             heads = table.heads
             bodies = table.bodies
         else:
             heads, bodies = self._number(theory)
         intern = self._intern
         self.mentioned = len(self.keys)  # atoms below this id occur in the theory itself
-        self.nab_id = {c: intern(theory.nab, (c,)) for c in theory.components}
-        self.ab_id = {c: intern(theory.ab, (c,)) for c in theory.components}
+        comps = theory.components
+        self.nab_id = dict(zip(comps, [intern(theory.nab, (c,)) for c in comps], strict=True))
+        self.ab_id = dict(zip(comps, [intern(theory.ab, (c,)) for c in comps], strict=True))
         self.complement = self._complements()
         self.false_id = self.ids.get((FALSE, ()), -1)
-        self.assumption: dict[int, tuple[str, bool]] = {}  # atom -> (component, is AB)
-        for comp in theory.components:
-            self.assumption[self.nab_id[comp]] = (comp, False)
-            self.assumption[self.ab_id[comp]] = (comp, True)
+        # atom -> (component, is AB)
+        self.assumption: dict[int, tuple[str, bool]] = dict(
+            zip(self.nab_id.values(), zip(comps, repeat(False)), strict=True)
+        )
+        self.assumption.update(zip(self.ab_id.values(), zip(comps, repeat(True)), strict=True))
         self.head = heads
         self.body = bodies
         self.occurs = self._occurrences(bodies)

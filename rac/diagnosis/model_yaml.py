@@ -17,6 +17,7 @@ import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from itertools import chain
+from types import MappingProxyType
 
 import yaml
 
@@ -418,6 +419,7 @@ def _unique(
         keys=tuple(atoms.keys),
         heads=tuple([heads[k] for k in kept]),
         bodies=tuple([tuple(dict.fromkeys(bodies[k])) for k in kept]),
+        ids=MappingProxyType(atoms.by_key),
     )
     return unique, table
 

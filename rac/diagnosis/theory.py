@@ -10,6 +10,7 @@ from __future__ import annotations
 import re
 from collections.abc import Container, Iterable
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import TYPE_CHECKING
 
 from rac.errors import Diagnostic, RacError, Span, did_you_mean
@@ -39,6 +40,7 @@ class ClauseTable:
     keys: tuple[Key, ...]  # atom number -> (predicate, args)
     heads: tuple[int, ...]
     bodies: tuple[tuple[int, ...], ...]  # each body without repeated atoms
+    ids: MappingProxyType[Key, int] = field(compare=False)  # (predicate, args) -> number
 
 
 @dataclass(frozen=True, slots=True)
