@@ -22,10 +22,7 @@ problem is written with PDDLWriter; a plan read back is mapped through each comp
 
 from __future__ import annotations
 
-import os
 import resource
-import signal
-import subprocess
 import sys
 import tempfile
 import time
@@ -34,7 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from rac.repair.planner import Step, parse_plan
+from rac.repair.planner import Step, parse_plan, run_bounded
 
 STEP_NAMES = (
     "QUANTIFIERS_REMOVING",
@@ -181,22 +178,13 @@ def run_pyperplan(
         args = ["-s", search, "-H", heuristic, "-l", "warning", "domain.pddl", "problem.pddl"]
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         start = time.monotonic()
-        with subprocess.Popen(
-            [*command, *args],
-            cwd=work,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            text=True,
-            start_new_session=True,
-        ) as proc:
-            try:
-                output, _ = proc.communicate(timeout=timeout_s)
-                why = "" if proc.returncode == 0 else f"exit code {proc.returncode}"
-            except subprocess.TimeoutExpired:
-                os.killpg(proc.pid, signal.SIGKILL)
-                output, _ = proc.communicate()
-                why = f"no plan within {timeout_s:g} s"
+        finished = run_bounded([*command, *args], work, timeout_s)
         seconds = time.monotonic() - start
+        output = "" if finished is None else finished[1]
+        if finished is None:
+            why = f"no plan within {timeout_s:g} s"
+        else:
+            why = "" if finished[0] == 0 else f"exit code {finished[0]}"
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
         solution = work / "problem.pddl.soln"

@@ -51,6 +51,19 @@ def test_generated_model_yaml_takes_the_line_reader(generated: str) -> None:
     assert model_yaml.parse_model_yaml(generated, "m.yaml") == _slow(generated)
 
 
+def _read_both(text: str) -> tuple[Theory | str, Theory | str]:
+    """The theory (or the rendered errors) from the general reader and from the fast one."""
+    try:
+        expected: Theory | str = _slow(text)
+    except RacError as err:
+        expected = err.render()
+    try:
+        got: Theory | str = model_yaml.parse_model_yaml(text, "m.yaml")
+    except RacError as err:
+        got = err.render()
+    return expected, got
+
+
 @pytest.mark.parametrize(
     "edit",
     [
@@ -67,14 +80,7 @@ def test_generated_model_yaml_takes_the_line_reader(generated: str) -> None:
 )
 def test_every_layout_reads_as_libyaml_reads_it(generated: str, edit: object) -> None:
     text = edit(generated)  # type: ignore[operator]
-    try:
-        expected: Theory | str = _slow(text)
-    except RacError as err:
-        expected = err.render()
-    try:
-        got: Theory | str = model_yaml.parse_model_yaml(text, "m.yaml")
-    except RacError as err:
-        got = err.render()
+    expected, got = _read_both(text)
     assert got == expected
 
 
@@ -262,14 +268,7 @@ def _model_texts(draw: st.DrawFn) -> str:
 def test_generated_layouts_read_and_number_as_the_general_path(text: str) -> None:
     import dataclasses
 
-    try:
-        expected: Theory | str = _slow(text)
-    except RacError as err:
-        expected = err.render()
-    try:
-        got: Theory | str = model_yaml.parse_model_yaml(text, "m.yaml")
-    except RacError as err:
-        got = err.render()
+    expected, got = _read_both(text)
     assert got == expected
     if isinstance(got, Theory):
         assert _index_arrays(got) == _index_arrays(dataclasses.replace(got, table=None))

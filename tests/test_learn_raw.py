@@ -4,6 +4,7 @@ deserialization gives, bit for bit, and fails where it fails."""
 from __future__ import annotations
 
 import importlib.util
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -218,15 +219,34 @@ def _outcome(read: Any, data: bytes) -> tuple[str, Any, Any]:
         return ("error", type(err), str(err))
 
 
-@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # means of extreme random values
-@pytest.mark.parametrize("ros", [1, 2])
-@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(data=st.data())
-def test_the_walk_reads_what_deserialization_reads(ros: int, data: st.DataObject) -> None:
+def _drawn(data: st.DataObject, ros: int) -> tuple[Any, str, Any, bytes]:
+    """A random message type of ROS ``ros``, fields to read from it, and one serialized
+    message: the store, the type's name, the layout, the bytes."""
     store, names = STORES[ros]
     typename = data.draw(st.sampled_from(names))
     layout = _draw_layout(data, store, typename)
-    message = _serialize(store, ros, _draw_message(data, store, typename), typename)
+    return (
+        store,
+        typename,
+        layout,
+        _serialize(store, ros, _draw_message(data, store, typename), typename),
+    )
+
+
+def _on_random_messages(test: Callable[..., None]) -> Callable[..., None]:
+    """Run ``test(ros, data)`` for ROS 1 and ROS 2, on 400 drawings each (hypothesis)."""
+    test = given(data=st.data())(test)
+    test = settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])(
+        test
+    )
+    test = pytest.mark.parametrize("ros", [1, 2])(test)
+    # means of extreme random values warn
+    return pytest.mark.filterwarnings("ignore::RuntimeWarning")(test)
+
+
+@_on_random_messages
+def test_the_walk_reads_what_deserialization_reads(ros: int, data: st.DataObject) -> None:
+    store, typename, layout, message = _drawn(data, ros)
     walk = raw.raw_row_reader(
         store.fielddefs, typename, layout, cdr=ros == 2, max_sequence=store.max_sequence_length
     )
@@ -247,16 +267,10 @@ def _damage(data: st.DataObject, message: bytes) -> bytes:
     return message[:at] + bytes([data.draw(st.integers(0, 255))]) + message[at + 1 :]
 
 
-@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # means of extreme random values
-@pytest.mark.parametrize("ros", [1, 2])
-@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(data=st.data())
+@_on_random_messages
 def test_a_damaged_message_fails_as_deserialization_fails(ros: int, data: st.DataObject) -> None:
     """Whatever the damage, the reader gives deserialization's row or its very error."""
-    store, names = STORES[ros]
-    typename = data.draw(st.sampled_from(names))
-    layout = _draw_layout(data, store, typename)
-    message = _serialize(store, ros, _draw_message(data, store, typename), typename)
+    store, typename, layout, message = _drawn(data, ros)
     damaged = _damage(data, message)
     read = raw.row_reader(store, typename, layout, cdr=ros == 2)
     full_row = row_extractor(layout)

@@ -113,23 +113,11 @@ def run_planner(
             search,
         ]
         start = time.monotonic()
-        # Own session, so a time-out kills the driver and the search it started.
-        with subprocess.Popen(
-            cmd,
-            cwd=work,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            text=True,
-            start_new_session=True,
-        ) as proc:
-            try:
-                output, _ = proc.communicate(timeout=timeout_s)
-            except subprocess.TimeoutExpired:
-                os.killpg(proc.pid, signal.SIGKILL)
-                proc.communicate()
-                raise _timed_out(timeout_s) from None
+        finished = run_bounded(cmd, work, timeout_s)
+        if finished is None:
+            raise _timed_out(timeout_s)
         seconds = time.monotonic() - start
-        code = proc.returncode
+        code, output = finished
         plan_file = work / "sas_plan"
         if code == 0 and plan_file.is_file():
             try:
@@ -138,6 +126,27 @@ def run_planner(
                 raise NoRepairPlan("RAC073", f"cannot read the planner's plan: {err}") from None
             return PlannerRun(plan, seconds)
     raise _failure(code, output, timeout_s)
+
+
+def run_bounded(cmd: list[str], cwd: Path, timeout_s: float) -> tuple[int, str] | None:
+    """Run ``cmd`` in its own session: its exit code and output (stderr included), or None
+    when it ran out of time.  The whole session is killed then, so a planner's driver does
+    not leave the search it started running."""
+    with subprocess.Popen(
+        cmd,
+        cwd=cwd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        start_new_session=True,
+    ) as proc:
+        try:
+            output, _ = proc.communicate(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.communicate()
+            return None
+    return proc.returncode, output
 
 
 def _timed_out(timeout_s: float) -> NoRepairPlan:

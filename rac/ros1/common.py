@@ -9,13 +9,13 @@ from __future__ import annotations
 import os
 import socket
 import xmlrpc.client
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 from urllib.parse import urlparse
 
 from rac.errors import Diagnostic, RacError
 from rac.runtime.procs import REMOTE
-from rac.runtime.status import Row
+from rac.runtime.status import Row, rows_from_array
 
 CALLER = "/racc"
 XMLRPC_TIMEOUT_S = 0.5
@@ -125,6 +125,53 @@ def log_to_ros(rospy: Any) -> Any:
     return log
 
 
+class Ros1Bus:
+    """:class:`rac.runtime.nodes.Bus` over rospy: this process's node, started here."""
+
+    def __init__(self, name: str) -> None:
+        self.rospy = require_ros()
+        self.rospy.init_node(name)
+        self._log = log_to_ros(self.rospy)
+
+    @property
+    def name(self) -> str:
+        return str(self.rospy.get_name()).lstrip("/")
+
+    @property
+    def ok(self) -> bool:
+        return not self.rospy.is_shutdown()
+
+    def log(self, level: int, text: str) -> None:
+        self._log(level, text)
+
+    def rows_publisher(
+        self, topic: str, depth: int, latched: bool = False
+    ) -> Callable[[Sequence[Row]], None]:
+        from diagnostic_msgs.msg import DiagnosticArray
+
+        pub = self.rospy.Publisher(topic, DiagnosticArray, queue_size=depth, latch=latched)
+        return lambda rows: pub.publish(to_array(rows))
+
+    def on_rows(
+        self, topic: str, callback: Callable[[list[Row]], None], depth: int, latched: bool = False
+    ) -> None:
+        # A ROS 1 subscriber receives a latched publisher's last message anyway.
+        from diagnostic_msgs.msg import DiagnosticArray
+
+        def receive(array: Any) -> None:
+            callback(rows_from_array(array))
+
+        self.rospy.Subscriber(topic, DiagnosticArray, receive, queue_size=depth)
+
+    def on_text(self, topic: str, callback: Callable[[str], None], depth: int) -> None:
+        from std_msgs.msg import String
+
+        def receive(msg: Any) -> None:
+            callback(msg.data)
+
+        self.rospy.Subscriber(topic, String, receive, queue_size=depth)
+
+
 # -- diagnostic statuses ---------------------------------------------------------------------
 
 
@@ -145,23 +192,6 @@ def to_array(rows: Iterable[Row], stamp: Any = None) -> Any:
         for r in rows
     ]
     return array
-
-
-def from_array(array: Any) -> list[Row]:
-    return [from_status(s) for s in array.status]
-
-
-def from_status(status: Any) -> Row:
-    level = status.level
-    if isinstance(level, bytes):  # a 'byte' field may come as bytes
-        level = level[0] if level else 0
-    return Row(
-        name=status.name,
-        level=int(level),
-        message=status.message,
-        hardware_id=status.hardware_id,
-        values=tuple((kv.key, kv.value) for kv in status.values),
-    )
 
 
 # -- raw messages ------------------------------------------------------------------------------

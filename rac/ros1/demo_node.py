@@ -6,8 +6,9 @@ import os
 from typing import Any
 
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC
-from rac.ros1.common import from_array, log_to_ros, raw_class, require_ros, to_array
+from rac.ros1.common import log_to_ros, raw_class, require_ros, to_array
 from rac.runtime.demo import DemoNode, DemoRunner, LiveTopic, start_body
+from rac.runtime.status import rows_from_array
 
 
 def run_demo_node(demo: DemoNode) -> None:
@@ -41,7 +42,10 @@ def run_demo_node(demo: DemoNode) -> None:
     runner = DemoRunner(demo, body, publish, status, log_to_ros(rospy))
     if runner.channels:
         rospy.Subscriber(
-            BOARD_TOPIC, DiagnosticArray, lambda a: runner.board_rows(from_array(a)), queue_size=5
+            BOARD_TOPIC,
+            DiagnosticArray,
+            lambda a: runner.board_rows(rows_from_array(a)),
+            queue_size=5,
         )
     rospy.loginfo(
         "demo node %s: publishes %s", demo.name, ", ".join(t.name for t in demo.topics) or "nothing"

@@ -1,21 +1,16 @@
 """The diagnosis node (``racc engine``): model server and diagnosis engine (§6.3, §6.4).
 
-The schedule, the diagnoses and the reloads are :class:`rac.runtime.diagnoser.EngineLoop`'s;
-this node moves arrays between it and rospy.
+The schedule, the diagnoses and the reloads are :class:`rac.runtime.diagnoser.EngineLoop`'s,
+the node's loop is :func:`rac.runtime.nodes.run_engine_node`'s; this module gives it rospy.
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
-from typing import Any
 
 from rac.diagnosis import Theory
-from rac.ros1.common import from_array, log_to_ros, require_ros, to_array
-from rac.runtime.diagnoser import EngineLoop
-
-DIAGNOSIS = "/diagnosis"
-POLL_S = 0.05
+from rac.ros1.common import Ros1Bus
+from rac.runtime.nodes import run_engine_node
 
 
 def run_engine(
@@ -27,31 +22,4 @@ def run_engine(
     max_card: int | None = None,
     name: str = "racc_engine",
 ) -> None:
-    rospy = require_ros()
-    from diagnostic_msgs.msg import DiagnosticArray
-    from std_msgs.msg import String
-
-    rospy.init_node(name)
-    log = log_to_ros(rospy)
-    engine = EngineLoop(
-        path, load, robot, rospy.get_name().lstrip("/"), log, rate_hz=rate_hz, max_card=max_card
-    )
-    pub = rospy.Publisher(DIAGNOSIS, DiagnosticArray, queue_size=10, latch=True)
-    summary = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=10)
-
-    def on_observations(array: Any) -> None:
-        engine.observation_rows(from_array(array), time.time())
-
-    def on_reload(msg: Any) -> None:
-        engine.request_reload(msg.data)
-
-    rospy.Subscriber("/observations", DiagnosticArray, on_observations, queue_size=50)
-    rospy.Subscriber("~reload", String, on_reload)
-    components = len(engine.diagnoser.theory.components)
-    log(0, f"racc engine: {path}, {components} components, {rate_hz:.3g} Hz")
-    while not rospy.is_shutdown():
-        time.sleep(min(POLL_S, engine.period))
-        tick = engine.step(time.time())
-        if tick is not None:
-            pub.publish(to_array(tick.rows))
-            summary.publish(to_array([tick.summary]))
+    run_engine_node(Ros1Bus(name), path, load, robot, rate_hz=rate_hz, max_card=max_card)

@@ -7,9 +7,10 @@ from collections.abc import Sequence
 from typing import Any
 
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec
-from rac.ros1.common import connection_type, from_array, require_ros, resolve_pid, to_array
+from rac.ros1.common import connection_type, require_ros, resolve_pid, to_array
 from rac.runtime.host import HostLoop, ObserverHost
 from rac.runtime.procs import ProcessProbe
+from rac.runtime.status import rows_from_array
 from rac.runtime.values import Readers
 
 OBSERVATIONS = "/observations"
@@ -41,13 +42,13 @@ def run_observe(
     if bank.devices:
         subs.append(
             rospy.Subscriber(
-                DIAGNOSTICS_TOPIC, DiagnosticArray, lambda a: host.device_rows(from_array(a))
+                DIAGNOSTICS_TOPIC, DiagnosticArray, lambda a: host.device_rows(rows_from_array(a))
             )
         )
     if bank.needs_board:
         subs.append(
             rospy.Subscriber(
-                BOARD_TOPIC, DiagnosticArray, lambda a: host.channel_rows(from_array(a))
+                BOARD_TOPIC, DiagnosticArray, lambda a: host.channel_rows(rows_from_array(a))
             )
         )
     probe = ProcessProbe(bank.nodes, resolve_pid, bank.properties)

@@ -15,17 +15,15 @@ from __future__ import annotations
 
 import signal
 import threading
-import time
 from pathlib import Path
 from typing import Any
 
 from rac.diagnosis import Theory
 from rac.errors import Diagnostic, RacError
-from rac.ros1.common import CALLER, from_array, node_uri, proxy, require_ros, resolve_pid, to_array
+from rac.ros1.common import CALLER, Ros1Bus, node_uri, proxy, resolve_pid
+from rac.runtime.nodes import run_repair_node
 from rac.runtime.procs import REMOTE, terminate
-from rac.runtime.repairer import LogEntry, RepairExecutor, Settings
-
-REPAIR_LOG = "/repair_log"
+from rac.runtime.repairer import Settings
 
 
 def load_launch_nodes(path: str) -> dict[str, Any]:
@@ -123,42 +121,19 @@ def run_repairer(
     rate_hz: float = 10.0,
     name: str = "racc_repairer",
 ) -> None:
-    rospy = require_ros()
-    from diagnostic_msgs.msg import DiagnosticArray
-
-    rospy.init_node(name)
-    actuator = Ros1Actuator(rospy, launch_file)
-    log_pub = rospy.Publisher(REPAIR_LOG, DiagnosticArray, queue_size=50, latch=True)
-
-    def log(entry: LogEntry) -> None:
-        (rospy.logerr if entry.level >= 2 else rospy.loginfo)(str(entry))
-        log_pub.publish(to_array([entry.row()]))
-
-    executor = RepairExecutor(
-        theory, robot, actuator, log, nodes=nodes, devices=devices, settings=settings
-    )
-    lock = threading.Lock()
-
-    def on_observations(array: Any) -> None:
-        with lock:
-            executor.observation_rows(from_array(array), time.time())
-
-    def on_diagnosis(array: Any) -> None:
-        with lock:
-            executor.diagnosis_rows(from_array(array))
-
-    rospy.Subscriber("/observations", DiagnosticArray, on_observations, queue_size=50)
-    rospy.Subscriber("/diagnosis", DiagnosticArray, on_diagnosis, queue_size=10)
-    rospy.loginfo(
-        "racc repairer: launch file %s, %d components",
-        launch_file or "(none)",
-        len(theory.components),
-    )
-    period = 1.0 / rate_hz
+    bus = Ros1Bus(name)
+    actuator = Ros1Actuator(bus.rospy, launch_file)
     try:
-        while not rospy.is_shutdown():
-            with lock:
-                executor.tick()
-            time.sleep(period)
+        run_repair_node(
+            bus,
+            actuator,
+            theory,
+            robot,
+            launch_file=launch_file,
+            nodes=nodes,
+            devices=devices,
+            settings=settings,
+            rate_hz=rate_hz,
+        )
     finally:
         actuator.shutdown()

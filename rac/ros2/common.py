@@ -15,7 +15,7 @@ from typing import Any
 
 from rac.errors import Diagnostic, RacError
 from rac.runtime.procs import REMOTE, innermost, node_processes, process_table
-from rac.runtime.status import Row
+from rac.runtime.status import Row, rows_from_array
 
 HINT = (
     "source a ROS 2 installation (Humble or Jazzy: 'source /opt/ros/jazzy/setup.bash'), or "
@@ -91,6 +91,39 @@ class Session:
     def name(self) -> str:
         return str(self.node.get_fully_qualified_name()).lstrip("/")
 
+    def rows_publisher(
+        self, topic: str, depth: int, latched: bool = False
+    ) -> Callable[[Sequence[Row]], None]:
+        """:class:`rac.runtime.nodes.Bus`'s publisher of status arrays, reliable."""
+        from diagnostic_msgs.msg import DiagnosticArray
+
+        pub = self.node.create_publisher(DiagnosticArray, topic, reliable(depth, latched))
+        return lambda rows: pub.publish(to_array(self, rows))
+
+    def on_rows(
+        self, topic: str, callback: Callable[[list[Row]], None], depth: int, latched: bool = False
+    ) -> None:
+        """A reliable subscription; ``latched`` (transient local) also receives the array
+        a latched publisher kept."""
+        from diagnostic_msgs.msg import DiagnosticArray
+
+        def receive(array: Any) -> None:
+            callback(rows_from_array(array))
+
+        self.node.create_subscription(DiagnosticArray, topic, receive, reliable(depth, latched))
+
+    def on_text(self, topic: str, callback: Callable[[str], None], depth: int) -> None:
+        """``~name`` is the node's private topic, ``~/name`` in ROS 2's spelling."""
+        from std_msgs.msg import String
+
+        if topic.startswith("~") and not topic.startswith("~/"):
+            topic = "~/" + topic[1:]
+
+        def receive(msg: Any) -> None:
+            callback(msg.data)
+
+        self.node.create_subscription(String, topic, receive, reliable(depth))
+
     def log(self, level: int, text: str) -> None:
         # rclpy's logger ties a severity to each call site: one line per level.
         logger = self.node.get_logger()
@@ -161,23 +194,6 @@ def to_array(session: Session, rows: Iterable[Row]) -> Any:
         for r in rows
     ]
     return array
-
-
-def from_array(array: Any) -> list[Row]:
-    return [from_status(s) for s in array.status]
-
-
-def from_status(status: Any) -> Row:
-    level = status.level
-    if isinstance(level, bytes):  # a 'byte' field comes as bytes in rclpy
-        level = level[0] if level else 0
-    return Row(
-        name=status.name,
-        level=int(level),
-        message=status.message,
-        hardware_id=status.hardware_id,
-        values=tuple((kv.key, kv.value) for kv in status.values),
-    )
 
 
 # -- nodes and their processes -----------------------------------------------------------------

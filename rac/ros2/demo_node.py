@@ -15,13 +15,13 @@ from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC
 from rac.ros2.common import (
     ROS_ARGS,
     Session,
-    from_array,
     message_class,
     reliable,
     sensor_qos,
     to_array,
 )
 from rac.runtime.demo import STAND_IN, DemoNode, DemoRunner, LiveTopic, start_body
+from rac.runtime.status import rows_from_array
 
 
 def run_demo_node(demo: DemoNode) -> None:
@@ -64,7 +64,10 @@ def run_demo_node(demo: DemoNode) -> None:
     runner = DemoRunner(demo, body, publish, status, session.log)
     if runner.channels:
         node.create_subscription(
-            DiagnosticArray, BOARD_TOPIC, lambda a: runner.board_rows(from_array(a)), sensor_qos(5)
+            DiagnosticArray,
+            BOARD_TOPIC,
+            lambda a: runner.board_rows(rows_from_array(a)),
+            sensor_qos(5),
         )
     shown = ", ".join(t.name for t in demo.topics) or "nothing"
     session.log(0, f"demo node {demo.name}: publishes {shown}")

@@ -19,7 +19,6 @@ from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec
 from rac.ros2.common import (
     PidResolver,
     Session,
-    from_array,
     graph_nodes,
     message_class,
     reliable,
@@ -28,6 +27,7 @@ from rac.ros2.common import (
 )
 from rac.runtime.host import HostLoop, ObserverHost
 from rac.runtime.procs import ProcessProbe
+from rac.runtime.status import rows_from_array
 from rac.runtime.values import Readers
 
 OBSERVATIONS = "/observations"
@@ -75,12 +75,15 @@ def run_observe(
         node.create_subscription(
             DiagnosticArray,
             DIAGNOSTICS_TOPIC,
-            lambda a: host.device_rows(from_array(a)),
+            lambda a: host.device_rows(rows_from_array(a)),
             sensor_qos(),
         )
     if bank.needs_board:
         node.create_subscription(
-            DiagnosticArray, BOARD_TOPIC, lambda a: host.channel_rows(from_array(a)), sensor_qos()
+            DiagnosticArray,
+            BOARD_TOPIC,
+            lambda a: host.channel_rows(rows_from_array(a)),
+            sensor_qos(),
         )
     resolver = PidResolver(lambda: graph_nodes(session))
     probe = ProcessProbe(bank.nodes, resolver, bank.properties, recheck_s=1.0)

@@ -16,17 +16,14 @@ import os
 import shlex
 import subprocess
 import threading
-import time
-from typing import Any
 
 from rac.diagnosis import Theory
 from rac.errors import Diagnostic, RacError
-from rac.ros2.common import Session, from_array, reliable, to_array
+from rac.ros2.common import Session, reliable
 from rac.ros2.launch import LaunchNode, command_line, load_launch
+from rac.runtime.nodes import run_repair_node
 from rac.runtime.procs import STOP_SIGNALS, node_processes, outermost, terminate
-from rac.runtime.repairer import LogEntry, RepairExecutor, Settings
-
-REPAIR_LOG = "/repair_log"
+from rac.runtime.repairer import Settings
 
 
 class Ros2Actuator:
@@ -112,45 +109,20 @@ def run_repairer(
     name: str = "racc_repairer",
 ) -> None:
     session = Session(name)
-    from diagnostic_msgs.msg import DiagnosticArray
-
-    node = session.node
     actuator = Ros2Actuator(session, launch_file, restart)
-    log_pub = node.create_publisher(DiagnosticArray, REPAIR_LOG, reliable(50, latched=True))
-
-    def log(entry: LogEntry) -> None:
-        session.log(entry.level, str(entry))
-        log_pub.publish(to_array(session, [entry.row()]))
-
-    executor = RepairExecutor(
-        theory, robot, actuator, log, nodes=nodes, devices=devices, settings=settings
-    )
-    lock = threading.Lock()
-
-    def on_observations(array: Any) -> None:
-        with lock:
-            executor.observation_rows(from_array(array), time.time())
-
-    def on_diagnosis(array: Any) -> None:
-        with lock:
-            executor.diagnosis_rows(from_array(array))
-
-    node.create_subscription(
-        DiagnosticArray, "/observations", on_observations, reliable(50, latched=True)
-    )
-    node.create_subscription(DiagnosticArray, "/diagnosis", on_diagnosis, reliable(10, True))
-    session.log(
-        0,
-        f"racc repairer: launch file {launch_file or '(none)'}, "
-        f"{len(theory.components)} components",
-    )
-    period = 1.0 / rate_hz
     try:
-        while session.ok:
-            with lock:
-                executor.tick()
-            actuator.reap()
-            time.sleep(period)
+        run_repair_node(
+            session,
+            actuator,
+            theory,
+            robot,
+            launch_file=launch_file,
+            nodes=nodes,
+            devices=devices,
+            settings=settings,
+            rate_hz=rate_hz,
+            after_tick=actuator.reap,
+        )
     finally:
         actuator.shutdown()
         session.close()

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from rac.diagnosis import DiagnosisResult
 from rac.logic import NEG_PREFIX, parse_atom
@@ -54,6 +55,25 @@ class Row:
 
     def value(self, key: str, default: str = "") -> str:
         return dict(self.values).get(key, default)
+
+
+def row_from_status(status: Any) -> Row:
+    """A ``diagnostic_msgs/DiagnosticStatus`` of either ROS as a :class:`Row`."""
+    level = status.level
+    if isinstance(level, bytes):  # a 'byte' field: bytes in rclpy, sometimes in rospy
+        level = level[0] if level else 0
+    return Row(
+        name=status.name,
+        level=int(level),
+        message=status.message,
+        hardware_id=status.hardware_id,
+        values=tuple((kv.key, kv.value) for kv in status.values),
+    )
+
+
+def rows_from_array(array: Any) -> list[Row]:
+    """The statuses of a ``diagnostic_msgs/DiagnosticArray`` of either ROS."""
+    return [row_from_status(s) for s in array.status]
 
 
 # -- /observations ---------------------------------------------------------------------

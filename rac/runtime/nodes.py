@@ -1,0 +1,142 @@
+"""The diagnosis and repair nodes' main loops, written once for both ROS versions.
+
+A node needs little from ROS: publish and receive arrays of statuses, receive a string, log,
+and know when to stop.  :class:`Bus` is that much; ``rac.ros1.common.Ros1Bus`` and
+``rac.ros2.common.Session`` provide it over rospy and rclpy.  What the nodes decide is
+:mod:`rac.runtime.diagnoser`'s and :mod:`rac.runtime.repairer`'s.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Sequence
+from typing import Protocol
+
+from rac.diagnosis import Theory
+from rac.runtime.diagnoser import EngineLoop
+from rac.runtime.repairer import Actuator, LogEntry, RepairExecutor, Settings
+from rac.runtime.status import Row
+
+DIAGNOSIS = "/diagnosis"
+OBSERVATIONS = "/observations"
+REPAIR_LOG = "/repair_log"
+SUMMARY = "/diagnostics"
+POLL_S = 0.05
+
+
+class Bus(Protocol):
+    """One ROS node's connection to the graph, as the racc nodes use it."""
+
+    @property
+    def name(self) -> str:
+        """The node's resolved name, without the leading '/'."""
+        ...
+
+    @property
+    def ok(self) -> bool:
+        """False once the node is asked to stop (Ctrl-C, SIGTERM, ROS shutdown)."""
+        ...
+
+    def log(self, level: int, text: str) -> None:
+        """Log at a status level: 0 info, 1 warning, 2 and above error."""
+        ...
+
+    def rows_publisher(
+        self, topic: str, depth: int, latched: bool = False
+    ) -> Callable[[Sequence[Row]], None]:
+        """Publish rows as one ``diagnostic_msgs/DiagnosticArray``; ``latched``: the last
+        array is kept for subscribers that join later."""
+        ...
+
+    def on_rows(
+        self, topic: str, callback: Callable[[list[Row]], None], depth: int, latched: bool = False
+    ) -> None:
+        """Call ``callback`` with the rows of each array on ``topic``; ``latched``: also
+        receive the array a latched publisher kept."""
+        ...
+
+    def on_text(self, topic: str, callback: Callable[[str], None], depth: int) -> None:
+        """Call ``callback`` with each ``std_msgs/String`` on ``topic`` (``~name``: the
+        node's private topic)."""
+        ...
+
+
+def run_engine_node(
+    bus: Bus,
+    path: str,
+    load: Callable[[str], Theory],
+    robot: str,
+    *,
+    rate_hz: float = 1.0,
+    max_card: int | None = None,
+) -> None:
+    """Diagnose ``/observations`` on ``/diagnosis`` and ``/diagnostics`` until the bus stops;
+    ``~reload`` replaces the model (a path, or empty for the same file)."""
+    engine = EngineLoop(path, load, robot, bus.name, bus.log, rate_hz=rate_hz, max_card=max_card)
+    publish = bus.rows_publisher(DIAGNOSIS, 10, latched=True)
+    summary = bus.rows_publisher(SUMMARY, 10)
+    bus.on_rows(
+        OBSERVATIONS, lambda rows: engine.observation_rows(rows, time.time()), 50, latched=True
+    )
+    bus.on_text("~reload", engine.request_reload, 5)
+    components = len(engine.diagnoser.theory.components)
+    bus.log(0, f"racc engine: {path}, {components} components, {rate_hz:.3g} Hz")
+    while bus.ok:
+        time.sleep(min(POLL_S, engine.period))
+        tick = engine.step(time.time())
+        if tick is not None:
+            publish(tick.rows)
+            summary([tick.summary])
+
+
+def run_repair_node(
+    bus: Bus,
+    actuator: Actuator,
+    theory: Theory,
+    robot: str,
+    *,
+    launch_file: str | None,
+    nodes: dict[str, str],
+    devices: dict[str, str],
+    settings: Settings,
+    rate_hz: float = 10.0,
+    after_tick: Callable[[], None] | None = None,
+) -> None:
+    """Carry out :class:`RepairExecutor`'s repairs of what ``/observations`` and
+    ``/diagnosis`` show, logging each step on ``/repair_log``, until the bus stops.
+    ``after_tick`` runs after each of the executor's ticks (a ROS 2 actuator reaps the
+    processes it started there)."""
+    log_pub = bus.rows_publisher(REPAIR_LOG, 50, latched=True)
+
+    def log(entry: LogEntry) -> None:
+        bus.log(entry.level, str(entry))
+        log_pub([entry.row()])
+
+    executor = RepairExecutor(
+        theory, robot, actuator, log, nodes=nodes, devices=devices, settings=settings
+    )
+    lock = threading.Lock()  # the bus calls back from its own threads
+
+    def on_observations(rows: list[Row]) -> None:
+        with lock:
+            executor.observation_rows(rows, time.time())
+
+    def on_diagnosis(rows: list[Row]) -> None:
+        with lock:
+            executor.diagnosis_rows(rows)
+
+    bus.on_rows(OBSERVATIONS, on_observations, 50, latched=True)
+    bus.on_rows(DIAGNOSIS, on_diagnosis, 10, latched=True)
+    bus.log(
+        0,
+        f"racc repairer: launch file {launch_file or '(none)'}, "
+        f"{len(theory.components)} components",
+    )
+    period = 1.0 / rate_hz
+    while bus.ok:
+        with lock:
+            executor.tick()
+        if after_tick is not None:
+            after_tick()
+        time.sleep(period)

@@ -1,0 +1,152 @@
+"""The diagnosis and repair nodes' loops (rac.runtime.nodes) on a bus without ROS: what
+they subscribe to, what they publish, and that they stop with the bus."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import pytest
+
+from rac.diagnosis import load_theory
+from rac.loader import load_model
+from rac.logic import Atom
+from rac.observe import Verdict
+from rac.pipeline import compile_model
+from rac.runtime.diagnoser import Diagnoser
+from rac.runtime.nodes import (
+    DIAGNOSIS,
+    OBSERVATIONS,
+    REPAIR_LOG,
+    SUMMARY,
+    run_engine_node,
+    run_repair_node,
+)
+from rac.runtime.repairer import Settings
+from rac.runtime.status import Row, literal_row, row_diagnosis
+from rac.targets import EmitOptions, emit_all
+
+ROOT = Path(__file__).resolve().parents[2]
+CRASH = Verdict(0, Atom("running", ("jaguar_node",)), False)
+TIME_LIMIT_S = 20.0
+
+
+class FakeBus:
+    """Records publications and subscriptions; stops when ``done`` holds or time is up."""
+
+    def __init__(self, done: Callable[[FakeBus], bool]) -> None:
+        self.done = done
+        self.published: dict[str, list[list[Row]]] = {}
+        self.latched: dict[str, bool] = {}
+        self.rows_callbacks: dict[str, Callable[[list[Row]], None]] = {}
+        self.text_callbacks: dict[str, Callable[[str], None]] = {}
+        self.logged: list[tuple[int, str]] = []
+        self.ticks = 0
+        self.deadline = time.monotonic() + TIME_LIMIT_S
+
+    @property
+    def name(self) -> str:
+        return "racc_test"
+
+    @property
+    def ok(self) -> bool:
+        self.ticks += 1
+        if self.ticks == 2:  # the node is set up and in its loop: the robot speaks
+            self.rows_callbacks[OBSERVATIONS]([literal_row(CRASH, "jaguar_node_pobs")])
+        return not self.done(self) and time.monotonic() < self.deadline
+
+    def log(self, level: int, text: str) -> None:
+        self.logged.append((level, text))
+
+    def rows_publisher(
+        self, topic: str, depth: int, latched: bool = False
+    ) -> Callable[[Sequence[Row]], None]:
+        self.latched[topic] = latched
+        sent = self.published.setdefault(topic, [])
+        return lambda rows: sent.append(list(rows))
+
+    def on_rows(
+        self, topic: str, callback: Callable[[list[Row]], None], depth: int, latched: bool = False
+    ) -> None:
+        self.rows_callbacks[topic] = callback
+
+    def on_text(self, topic: str, callback: Callable[[str], None], depth: int) -> None:
+        self.text_callbacks[topic] = callback
+
+
+@pytest.fixture(scope="module")
+def model_yaml(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("tedusar")
+    compiled = compile_model(load_model(ROOT / "models" / "tedusar.ram"))
+    (out / "model.yaml").write_text(emit_all(compiled, EmitOptions())["model.yaml"], "utf-8")
+    return out / "model.yaml"
+
+
+def _diagnosed(bus: FakeBus) -> bool:
+    return any(
+        row_diagnosis(r) == ("jaguar_node",)
+        for rows in bus.published.get(DIAGNOSIS, ())
+        for r in rows
+    )
+
+
+def test_the_engine_node_diagnoses_what_it_hears_until_the_bus_stops(model_yaml: Path) -> None:
+    bus = FakeBus(_diagnosed)
+    run_engine_node(bus, str(model_yaml), load_theory, "tedusar", rate_hz=20.0)
+    assert _diagnosed(bus), bus.published
+    assert set(bus.rows_callbacks) == {OBSERVATIONS} and set(bus.text_callbacks) == {"~reload"}
+    assert bus.latched == {DIAGNOSIS: True, SUMMARY: False}
+    assert any("jaguar_node" in rows[0].message for rows in bus.published[SUMMARY])
+    assert bus.logged[0][1].startswith(f"racc engine: {model_yaml}")
+
+
+class Robot:
+    """An actuator whose actions are only recorded."""
+
+    def __init__(self) -> None:
+        self.calls: list[tuple[str, str]] = []
+
+    def stop_node(self, node: str) -> None:
+        self.calls.append(("stop_node", node))
+
+    def start_node(self, node: str) -> None:
+        self.calls.append(("start_node", node))
+
+    def switch(self, device: str, on: bool) -> None:
+        self.calls.append(("power_up" if on else "shutdown", device))
+
+
+def test_the_repair_node_acts_on_the_diagnosis_and_logs_it(model_yaml: Path) -> None:
+    theory = load_theory(str(model_yaml))
+    robot, reaped = Robot(), []
+    diagnoser = Diagnoser(theory, "tedusar", "engine")
+    diagnoser.observe(CRASH)
+    diagnosis = list(diagnoser.tick().rows)
+
+    def started(bus: FakeBus) -> bool:
+        if bus.ticks == 3:
+            bus.rows_callbacks[DIAGNOSIS](diagnosis)
+        return ("start_node", "jaguar_node") in robot.calls
+
+    bus = FakeBus(started)
+    run_repair_node(
+        bus,
+        robot,
+        theory,
+        "tedusar",
+        launch_file=None,
+        nodes={},
+        devices={},
+        settings=Settings(),
+        rate_hz=50.0,
+        after_tick=lambda: reaped.append(1),
+    )
+    assert robot.calls == [("start_node", "jaguar_node")]
+    assert set(bus.rows_callbacks) == {OBSERVATIONS, DIAGNOSIS}
+    assert bus.latched == {REPAIR_LOG: True}
+    actions = [r.name for rows in bus.published[REPAIR_LOG] for r in rows]
+    assert actions[:2] == ["plan", "start_node"], actions
+    assert reaped and bus.logged[0][1] == "racc repairer: launch file (none), " + (
+        f"{len(theory.components)} components"
+    )
