@@ -60,7 +60,10 @@ _PREDICATE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _ARGUMENT = re.compile(r"[A-Za-z0-9_]+")
 # The common layout, ``pred`` or ``pred(a,b)`` with no blanks, in one match (a model file
 # holds hundreds of thousands of atoms); anything else takes the general path below.
-_COMPACT = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)(?:\(([A-Za-z0-9_]+(?:,[A-Za-z0-9_]+)*)\))?")
+# Its pattern is shared by the readers that match many atoms in one pass (two groups:
+# the predicate, the arguments joined by ',').
+COMPACT_ATOM = r"([A-Za-z_][A-Za-z0-9_]*)(?:\(([A-Za-z0-9_]+(?:,[A-Za-z0-9_]+)*)\))?"
+_COMPACT = re.compile(COMPACT_ATOM)
 
 
 def parse_atom(text: str) -> Atom:

@@ -95,8 +95,8 @@ class Index:
         bodies: Sequence[Sequence[int]]
         table = theory.table
         if table is not None and table.clauses is theory.clauses and table.props is theory.props:
-            self.keys.extend(table.keys)
             self.ids = table.ids.copy()  # the reader's own look-up: a copy, not a rehash
+            self.keys.extend(self.ids)  # numbered in insertion order
             heads = table.heads
             bodies = table.bodies
         else:

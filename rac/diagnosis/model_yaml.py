@@ -24,14 +24,21 @@ import yaml
 from rac.diagnosis.theory import ClauseTable, Key, Theory
 from rac.errors import Diagnostic, RacError, Span, did_you_mean
 from rac.limits import MAX_YAML_BYTES, YamlLimit, compose_yaml
-from rac.logic import AB, FALSE, NAB, NEG_PREFIX, Atom, Clause, parse_atom, parse_clause
+from rac.logic import (
+    AB,
+    COMPACT_ATOM,
+    FALSE,
+    NAB,
+    NEG_PREFIX,
+    Atom,
+    Clause,
+    parse_atom,
+    parse_clause,
+)
 from rac.perf import paused_gc
 
 KEYS = ("ab", "nab", "neg_prefix", "props", "rules")
-# rac.logic's compact atom, one per line
-_COMPACT_LINES = re.compile(
-    r"^([A-Za-z_][A-Za-z0-9_]*)(?:\(([A-Za-z0-9_]+(?:,[A-Za-z0-9_]+)*)\))?$", re.MULTILINE
-)
+_COMPACT_LINES = re.compile(rf"^{COMPACT_ATOM}$", re.MULTILINE)  # one atom per line
 
 
 @dataclass(frozen=True, slots=True)
@@ -255,8 +262,7 @@ class _Atoms:
     def __init__(self) -> None:
         self.by_text: dict[str, int] = {}
         self.by_key: dict[Key, int] = {}
-        self.atoms: list[Atom] = []
-        self.keys: list[Key] = []
+        self.atoms: list[Atom] = []  # by number; by_key is numbered in insertion order
 
     def number(self, text: str) -> int:
         found = self.by_text.get(text)
@@ -270,7 +276,6 @@ class _Atoms:
                 if found is None:
                     found = self.by_key[key] = len(self.atoms)
                     self.atoms.append(parsed)
-                    self.keys.append(key)
                 self.by_text[stripped] = found
             self.by_text[text] = found
         return found
@@ -297,14 +302,13 @@ class _Atoms:
         found = _COMPACT_LINES.findall("\n".join(texts))
         if len(found) != len(texts):  # a match never spans lines: some text did not match
             return False
-        by_text, by_key, atoms, keys = self.by_text, self.by_key, self.atoms, self.keys
+        by_text, by_key, atoms = self.by_text, self.by_key, self.atoms
         for text, (pred, args) in zip(texts, found, strict=True):
             key = (pred, tuple(args.split(",")) if args else ())
             number = by_key.get(key)
             if number is None:
                 number = by_key[key] = len(atoms)
                 atoms.append(Atom(*key))
-                keys.append(key)
             by_text[text] = number
         return True
 
@@ -416,10 +420,9 @@ def _unique(
     table = ClauseTable(
         clauses=unique,
         props=props,
-        keys=tuple(atoms.keys),
+        ids=MappingProxyType(atoms.by_key),
         heads=tuple([heads[k] for k in kept]),
         bodies=tuple([tuple(dict.fromkeys(bodies[k])) for k in kept]),
-        ids=MappingProxyType(atoms.by_key),
     )
     return unique, table
 

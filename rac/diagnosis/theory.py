@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 from rac.errors import Diagnostic, RacError, Span, did_you_mean
 from rac.loader import read_text
-from rac.logic import AB, FALSE, NAB, NEG_PREFIX, Atom, Clause, mangle, parse_atom
+from rac.logic import AB, COMPACT_ATOM, FALSE, NAB, NEG_PREFIX, Atom, Clause, mangle, parse_atom
 from rac.perf import paused_gc
 
 if TYPE_CHECKING:  # the compiler loads only for .ram/.json models
@@ -37,10 +37,10 @@ class ClauseTable:
 
     clauses: tuple[Clause, ...]
     props: tuple[Atom, ...]
-    keys: tuple[Key, ...]  # atom number -> (predicate, args)
+    # (predicate, args) -> atom number, in the order of the numbers
+    ids: MappingProxyType[Key, int] = field(compare=False)
     heads: tuple[int, ...]
     bodies: tuple[tuple[int, ...], ...]  # each body without repeated atoms
-    ids: MappingProxyType[Key, int] = field(compare=False)  # (predicate, args) -> number
 
 
 @dataclass(frozen=True, slots=True)
@@ -234,16 +234,11 @@ def collect(literals: Iterable[Literal]) -> tuple[Literal, ...]:
 
 
 # ``ok(x)``, ``not ok(x)`` or ``not_ok(x,y)`` alone on a line: the layout of a generated file.
-_PLAIN_LITERAL = re.compile(
-    r" *(not +)?([A-Za-z_][A-Za-z0-9_]*)(?:\(([A-Za-z0-9_]+(?:,[A-Za-z0-9_]+)*)\))? *"
-)
+_PLAIN_LITERAL = re.compile(rf" *(not +)?{COMPACT_ATOM} *")
 
 
 # The same, one per line of a whole file, in one pass (a file of tens of thousands of lines).
-_PLAIN_LINES = re.compile(
-    r"^ *(not +)?([A-Za-z_][A-Za-z0-9_]*)(?:\(([A-Za-z0-9_]+(?:,[A-Za-z0-9_]+)*)\))? *$",
-    re.MULTILINE,
-)
+_PLAIN_LINES = re.compile(rf"^{_PLAIN_LITERAL.pattern}$", re.MULTILINE)
 
 
 def plain_lines(text: str) -> list[tuple[str, str, str]] | None:

@@ -24,7 +24,7 @@ Rule = Callable[[Model], Iterable[Diagnostic]]
 # ROS graph resource names (ROS 1 and 2): segments start with a letter.
 _ROS_NAME = re.compile(r"/?[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*")
 # Names one a line, each a ROS name.
-_ROS_NAMES = re.compile(r"(?:/?[A-Za-z][A-Za-z0-9_]*(?:/[A-Za-z][A-Za-z0-9_]*)*\n)*")
+_ROS_NAMES = re.compile(rf"(?:{_ROS_NAME.pattern}\n)*")
 _DEVICE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_\-]*")
 
 
