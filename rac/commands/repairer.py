@@ -12,6 +12,7 @@ from rac.loader import load_observers
 from rac.logic import mangle
 from rac.observe.hobs import parse_channels
 from rac.repair import robot_name
+from rac.runtime.nodes import RepairJob
 from rac.runtime.repairer import Settings
 
 
@@ -95,17 +96,13 @@ def run(args: argparse.Namespace) -> int:
         verify_timeout_s=args.verify_timeout,
         strategy=args.strategy,
     )
-    robot = robot_name(theory, args.model)
+    job = RepairJob(theory, robot_name(theory, args.model), args.launch, nodes, devices, settings)
     if ros == 2:
         from rac.ros2.repairer import run_repairer as run2
 
-        restart = args.restart_command or None
-        run2(theory, robot, launch_file=args.launch, restart=restart, nodes=nodes,
-             devices=devices, settings=settings)  # fmt: skip
+        run2(job, restart=args.restart_command or None)
         return 0
     from rac.ros1.repairer import run_repairer
 
-    run_repairer(
-        theory, robot, launch_file=args.launch, nodes=nodes, devices=devices, settings=settings
-    )
+    run_repairer(job)
     return 0

@@ -10,10 +10,8 @@ from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec
 from rac.ros1.common import connection_type, require_ros, resolve_pid, to_array
 from rac.runtime.host import HostLoop, ObserverHost
 from rac.runtime.procs import ProcessProbe
-from rac.runtime.status import rows_from_array
+from rac.runtime.status import OBSERVATIONS, rows_from_array
 from rac.runtime.values import Readers
-
-OBSERVATIONS = "/observations"
 
 
 def run_observe(

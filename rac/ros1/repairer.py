@@ -18,12 +18,10 @@ import threading
 from pathlib import Path
 from typing import Any
 
-from rac.diagnosis import Theory
 from rac.errors import Diagnostic, RacError
 from rac.ros1.common import CALLER, Ros1Bus, node_uri, proxy, resolve_pid
-from rac.runtime.nodes import run_repair_node
+from rac.runtime.nodes import RepairJob, run_repair_node
 from rac.runtime.procs import REMOTE, terminate
-from rac.runtime.repairer import Settings
 
 
 def load_launch_nodes(path: str) -> dict[str, Any]:
@@ -110,30 +108,10 @@ class Ros1Actuator:
         self.launch.stop()
 
 
-def run_repairer(
-    theory: Theory,
-    robot: str,
-    *,
-    launch_file: str | None,
-    nodes: dict[str, str],
-    devices: dict[str, str],
-    settings: Settings,
-    rate_hz: float = 10.0,
-    name: str = "racc_repairer",
-) -> None:
+def run_repairer(job: RepairJob, name: str = "racc_repairer") -> None:
     bus = Ros1Bus(name)
-    actuator = Ros1Actuator(bus.rospy, launch_file)
+    actuator = Ros1Actuator(bus.rospy, job.launch_file)
     try:
-        run_repair_node(
-            bus,
-            actuator,
-            theory,
-            robot,
-            launch_file=launch_file,
-            nodes=nodes,
-            devices=devices,
-            settings=settings,
-            rate_hz=rate_hz,
-        )
+        run_repair_node(bus, actuator, job)
     finally:
         actuator.shutdown()

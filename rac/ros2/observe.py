@@ -27,10 +27,9 @@ from rac.ros2.common import (
 )
 from rac.runtime.host import HostLoop, ObserverHost
 from rac.runtime.procs import ProcessProbe
-from rac.runtime.status import rows_from_array
+from rac.runtime.status import OBSERVATIONS, rows_from_array
 from rac.runtime.values import Readers
 
-OBSERVATIONS = "/observations"
 DISCOVER_S = 0.5
 
 

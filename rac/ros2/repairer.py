@@ -17,13 +17,11 @@ import shlex
 import subprocess
 import threading
 
-from rac.diagnosis import Theory
 from rac.errors import Diagnostic, RacError
 from rac.ros2.common import Session, reliable
 from rac.ros2.launch import LaunchNode, command_line, load_launch
-from rac.runtime.nodes import run_repair_node
+from rac.runtime.nodes import RepairJob, run_repair_node
 from rac.runtime.procs import STOP_SIGNALS, node_processes, outermost, terminate
-from rac.runtime.repairer import Settings
 
 
 class Ros2Actuator:
@@ -96,33 +94,11 @@ class Ros2Actuator:
                 proc.poll()
 
 
-def run_repairer(
-    theory: Theory,
-    robot: str,
-    *,
-    launch_file: str | None,
-    restart: str | None = None,
-    nodes: dict[str, str],
-    devices: dict[str, str],
-    settings: Settings,
-    rate_hz: float = 10.0,
-    name: str = "racc_repairer",
-) -> None:
+def run_repairer(job: RepairJob, restart: str | None = None, name: str = "racc_repairer") -> None:
     session = Session(name)
-    actuator = Ros2Actuator(session, launch_file, restart)
+    actuator = Ros2Actuator(session, job.launch_file, restart)
     try:
-        run_repair_node(
-            session,
-            actuator,
-            theory,
-            robot,
-            launch_file=launch_file,
-            nodes=nodes,
-            devices=devices,
-            settings=settings,
-            rate_hz=rate_hz,
-            after_tick=actuator.reap,
-        )
+        run_repair_node(session, actuator, job, after_tick=actuator.reap)
     finally:
         actuator.shutdown()
         session.close()

@@ -10,18 +10,16 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from typing import Protocol
 
 from rac.diagnosis import Theory
+from rac.passes.observers import DIAGNOSTICS_TOPIC
 from rac.runtime.diagnoser import EngineLoop
 from rac.runtime.repairer import Actuator, LogEntry, RepairExecutor, Settings
-from rac.runtime.status import Row
+from rac.runtime.status import DIAGNOSIS, OBSERVATIONS, REPAIR_LOG, Row
 
-DIAGNOSIS = "/diagnosis"
-OBSERVATIONS = "/observations"
-REPAIR_LOG = "/repair_log"
-SUMMARY = "/diagnostics"
 POLL_S = 0.05
 
 
@@ -75,7 +73,7 @@ def run_engine_node(
     ``~reload`` replaces the model (a path, or empty for the same file)."""
     engine = EngineLoop(path, load, robot, bus.name, bus.log, rate_hz=rate_hz, max_card=max_card)
     publish = bus.rows_publisher(DIAGNOSIS, 10, latched=True)
-    summary = bus.rows_publisher(SUMMARY, 10)
+    summary = bus.rows_publisher(DIAGNOSTICS_TOPIC, 10)
     bus.on_rows(
         OBSERVATIONS, lambda rows: engine.observation_rows(rows, time.time()), 50, latched=True
     )
@@ -90,23 +88,30 @@ def run_engine_node(
             summary([tick.summary])
 
 
+@dataclass(frozen=True, slots=True, eq=False)
+class RepairJob:
+    """What the repair node works on, whichever ROS carries it out."""
+
+    theory: Theory
+    robot: str
+    launch_file: str | None  # the user's launch file, where start_node finds its entries
+    nodes: Mapping[str, str]  # component -> ROS node name
+    devices: Mapping[str, str]  # component -> device name
+    settings: Settings
+    rate_hz: float = 10.0
+
+
 def run_repair_node(
     bus: Bus,
     actuator: Actuator,
-    theory: Theory,
-    robot: str,
-    *,
-    launch_file: str | None,
-    nodes: dict[str, str],
-    devices: dict[str, str],
-    settings: Settings,
-    rate_hz: float = 10.0,
+    job: RepairJob,
     after_tick: Callable[[], None] | None = None,
 ) -> None:
     """Carry out :class:`RepairExecutor`'s repairs of what ``/observations`` and
     ``/diagnosis`` show, logging each step on ``/repair_log``, until the bus stops.
     ``after_tick`` runs after each of the executor's ticks (a ROS 2 actuator reaps the
     processes it started there)."""
+    theory = job.theory
     log_pub = bus.rows_publisher(REPAIR_LOG, 50, latched=True)
 
     def log(entry: LogEntry) -> None:
@@ -114,7 +119,13 @@ def run_repair_node(
         log_pub([entry.row()])
 
     executor = RepairExecutor(
-        theory, robot, actuator, log, nodes=nodes, devices=devices, settings=settings
+        theory,
+        job.robot,
+        actuator,
+        log,
+        nodes=job.nodes,
+        devices=job.devices,
+        settings=job.settings,
     )
     lock = threading.Lock()  # the bus calls back from its own threads
 
@@ -130,10 +141,10 @@ def run_repair_node(
     bus.on_rows(DIAGNOSIS, on_diagnosis, 10, latched=True)
     bus.log(
         0,
-        f"racc repairer: launch file {launch_file or '(none)'}, "
+        f"racc repairer: launch file {job.launch_file or '(none)'}, "
         f"{len(theory.components)} components",
     )
-    period = 1.0 / rate_hz
+    period = 1.0 / job.rate_hz
     while bus.ok:
         with lock:
             executor.tick()

@@ -40,6 +40,11 @@ from rac.logic import NEG_PREFIX, parse_atom
 from rac.observe import ChannelState, Verdict
 
 OK, WARN, ERROR, STALE = 0, 1, 2, 3
+# The topics of the runtime's status arrays (the summary goes to /diagnostics,
+# rac.passes.observers.DIAGNOSTICS_TOPIC).
+OBSERVATIONS = "/observations"
+DIAGNOSIS = "/diagnosis"
+REPAIR_LOG = "/repair_log"
 NO_DIAGNOSIS = "no diagnosis"
 
 

@@ -13,18 +13,12 @@ from rac.diagnosis import load_theory
 from rac.loader import load_model
 from rac.logic import Atom
 from rac.observe import Verdict
+from rac.passes.observers import DIAGNOSTICS_TOPIC
 from rac.pipeline import compile_model
 from rac.runtime.diagnoser import Diagnoser
-from rac.runtime.nodes import (
-    DIAGNOSIS,
-    OBSERVATIONS,
-    REPAIR_LOG,
-    SUMMARY,
-    run_engine_node,
-    run_repair_node,
-)
+from rac.runtime.nodes import RepairJob, run_engine_node, run_repair_node
 from rac.runtime.repairer import Settings
-from rac.runtime.status import Row, literal_row, row_diagnosis
+from rac.runtime.status import DIAGNOSIS, OBSERVATIONS, REPAIR_LOG, Row, literal_row, row_diagnosis
 from rac.targets import EmitOptions, emit_all
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -96,8 +90,8 @@ def test_the_engine_node_diagnoses_what_it_hears_until_the_bus_stops(model_yaml:
     run_engine_node(bus, str(model_yaml), load_theory, "tedusar", rate_hz=20.0)
     assert _diagnosed(bus), bus.published
     assert set(bus.rows_callbacks) == {OBSERVATIONS} and set(bus.text_callbacks) == {"~reload"}
-    assert bus.latched == {DIAGNOSIS: True, SUMMARY: False}
-    assert any("jaguar_node" in rows[0].message for rows in bus.published[SUMMARY])
+    assert bus.latched == {DIAGNOSIS: True, DIAGNOSTICS_TOPIC: False}
+    assert any("jaguar_node" in rows[0].message for rows in bus.published[DIAGNOSTICS_TOPIC])
     assert bus.logged[0][1].startswith(f"racc engine: {model_yaml}")
 
 
@@ -130,18 +124,8 @@ def test_the_repair_node_acts_on_the_diagnosis_and_logs_it(model_yaml: Path) -> 
         return ("start_node", "jaguar_node") in robot.calls
 
     bus = FakeBus(started)
-    run_repair_node(
-        bus,
-        robot,
-        theory,
-        "tedusar",
-        launch_file=None,
-        nodes={},
-        devices={},
-        settings=Settings(),
-        rate_hz=50.0,
-        after_tick=lambda: reaped.append(1),
-    )
+    job = RepairJob(theory, "tedusar", None, {}, {}, Settings(), rate_hz=50.0)
+    run_repair_node(bus, robot, job, after_tick=lambda: reaped.append(1))
     assert robot.calls == [("start_node", "jaguar_node")]
     assert set(bus.rows_callbacks) == {OBSERVATIONS, DIAGNOSIS}
     assert bus.latched == {REPAIR_LOG: True}
