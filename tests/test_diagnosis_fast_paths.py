@@ -206,7 +206,8 @@ def _index_arrays(theory: Theory) -> tuple[object, ...]:
         index.facts,
         index.monotone,
         dict(index.ids),
-        index.assumption,
+        index.component,
+        [index.is_ab(a) for a in index.component],
     )
 
 

@@ -219,7 +219,7 @@ class _States:
                 if kind == "nab":
                     conds.append(("nab", f"{a}@{b}", -1))
                 else:
-                    found = index.ids.get((a, tuple(b.split(","))))
+                    found = index.number((a, tuple(b.split(","))))
                     conds.append(("atom", a, -1 if found is None else found))
             out.append(conds)
         return out

@@ -17,8 +17,9 @@ from __future__ import annotations
 from collections import ChainMap
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from itertools import compress, count, repeat
-from operator import itemgetter
+from itertools import compress, count
+from operator import itemgetter, not_
+from typing import cast
 
 from rac.diagnosis.theory import Key, Literal, Theory
 from rac.errors import Diagnostic, RacError, did_you_mean
@@ -55,6 +56,35 @@ class Full:
     clashes: tuple[tuple[int, ...], ...]  # every contradiction it holds
 
 
+def _intern(ids: dict[Key, int], key: Key) -> int:
+    found = ids.get(key)
+    if found is None:
+        found = ids[key] = len(ids)
+    return found
+
+
+def _number(theory: Theory, ids: dict[Key, int]) -> tuple[list[int], list[list[int]]]:
+    """Number the atoms of the clauses (heads, then bodies) and props in ``ids``: the
+    order a clause table numbers them in."""
+    by_object: dict[int, int] = {}  # a model read from a file shares one object per atom
+
+    def atom_id(atom: Atom) -> int:
+        found = by_object.get(id(atom))
+        if found is None:
+            found = by_object[id(atom)] = _intern(ids, (atom.predicate, atom.args))
+        return found
+
+    clauses = theory.clauses
+    heads = [atom_id(c.head) for c in clauses]
+    bodies = [[atom_id(a) for a in c.body] for c in clauses]
+    for k, body in enumerate(bodies):
+        if len(body) > 1 and len(set(body)) < len(body):
+            bodies[k] = list(dict.fromkeys(body))  # a repeated body atom counts once
+    for atom in theory.props:
+        atom_id(atom)
+    return heads, bodies
+
+
 class KnownAtoms:
     """``rac.diagnosis.theory.known_atoms`` of an index's theory as a look-up, not a set.
 
@@ -78,7 +108,14 @@ class KnownAtoms:
 
 
 class Index:
-    """The clause set of a theory as integer arrays, built once and reused for every check."""
+    """The clause set of a theory as integer arrays, built once and reused for every check.
+
+    Atoms are numbered in two ranges.  Below ``named`` are the atoms of the look-up ``ids``:
+    those the theory mentions and the NAB atoms of components it does not.  From ``named``
+    on are the complements nothing mentions (``not_p`` of a mentioned ``p``, AB of a NAB):
+    each exists only as a number and its complement's, so that the index never builds a
+    key or a dictionary entry for atoms the model does not mention, which are most of them.
+    """
 
     def __init__(self, theory: Theory) -> None:
         with paused_gc():  # hundreds of thousands of small lists and tuples, none cyclic
@@ -87,82 +124,108 @@ class Index:
     def _build(self, theory: Theory) -> None:
         self.theory = theory
         # Atoms are keyed by (predicate, args): tuple hashing runs in C, Atom's in Python,
-        # which matters at 100,000 atoms.  Atom objects are first looked up by identity: a
-        # model read from a file shares one object per atom across its rules.
-        self.ids: dict[Key, int] = {}
-        self.keys: list[Key] = []
+        # which matters at 100,000 atoms.
         heads: Sequence[int]
         bodies: Sequence[Sequence[int]]
         table = theory.table
-        if table is not None and table.clauses is theory.clauses and table.props is theory.props:
-            self.ids = table.ids.copy()  # the reader's own look-up: a copy, not a rehash
-            self.keys.extend(self.ids)  # numbered in insertion order
-            heads = table.heads
-            bodies = table.bodies
-        else:
-            heads, bodies = self._number(theory)
-        intern = self._intern
-        self.mentioned = len(self.keys)  # atoms below this id occur in the theory itself
         comps = theory.components
-        self.nab_id = dict(zip(comps, [intern(theory.nab, (c,)) for c in comps], strict=True))
-        self.ab_id = dict(zip(comps, [intern(theory.ab, (c,)) for c in comps], strict=True))
+        if table is not None and table.clauses is theory.clauses and table.props is theory.props:
+            ids: Mapping[Key, int] = table.ids  # the reader's own look-up, used as it is
+            heads, bodies = table.heads, table.bodies
+            nab_ids = list(map(table.nab.get, comps))
+        else:
+            own: dict[Key, int] = {}
+            heads, bodies = _number(theory, own)
+            ids = own
+            nab_ids = list(map(ids.get, [(theory.nab, (c,)) for c in comps]))
+        self.mentioned = len(ids)  # atoms below this id occur in the theory itself
+        if None in nab_ids:  # components no rule mentions: their NAB gets a number
+            grown = dict(ids)  # the reader's look-up stays as it was
+            nab_ids = [_intern(grown, (theory.nab, (c,))) for c in comps]
+            ids = grown
+        self.ids: Mapping[Key, int] = ids
+        self._keys: list[Key] | None = None
         self.complement = self._complements()
+        self.named = len(self.ids)  # the fallback of _complements may have named more
+        self.count = len(self.complement)
         self.false_id = self.ids.get((FALSE, ()), -1)
-        # atom -> (component, is AB)
-        self.assumption: dict[int, tuple[str, bool]] = dict(
-            zip(self.nab_id.values(), zip(comps, repeat(False)), strict=True)
-        )
-        self.assumption.update(zip(self.ab_id.values(), zip(comps, repeat(True)), strict=True))
+        self.all_nab = cast(list[int], nab_ids)  # no None left
+        ab_ids = list(map(self.complement.__getitem__, self.all_nab))  # AB(c) = ¬NAB(c)
+        self.nab_id = dict(zip(comps, self.all_nab, strict=True))
+        self.ab_id = dict(zip(comps, ab_ids, strict=True))
+        # assumption atom (NAB or AB) -> its component
+        self.component = dict(zip(self.all_nab, comps, strict=True))
+        self.component.update(zip(ab_ids, comps, strict=True))
         self.head = heads
         self.body = bodies
         self.occurs = self._occurrences(bodies)
-        self.facts = [k for k, body in enumerate(bodies) if not body]
+        self.size = list(map(len, bodies))
+        self.facts = list(compress(count(), map(not_, self.size)))
         self._by_head: list[list[int]] | None = None
-        self.size = [len(b) for b in bodies]
-        self.monotone = self._is_monotone()
-        self.all_nab = [self.nab_id[c] for c in theory.components]
+        self.monotone = self._is_monotone(ab_ids)
         self._normal: Full | None = None
         self.known = KnownAtoms(self)
 
-    def _complements(self) -> list[int]:
-        """Each atom's complement (``p`` <-> ``not_p``, ``AB`` <-> ``NAB``), interning the
-        missing ones, to a fixpoint (``not_not_a`` -> ``not_a`` -> ``a``); -1 for ``false``.
+    @property
+    def keys(self) -> list[Key]:
+        """Every atom's (predicate, args), by number: the unnamed complements spelt out
+        (built on first use: error messages and tests read it, checks never do)."""
+        if self._keys is None:
+            keys = list(self.ids)
+            other = self._complement_predicate
+            keys.extend([(other(keys[a][0]), keys[a][1]) for a in self.complement[self.named :]])
+            self._keys = keys
+        return self._keys
 
-        In rounds over the atoms added by the previous one, with the work per atom done by
-        C loops (comprehensions, ``map``), which matters at a few hundred thousand atoms.
+    def _complements(self) -> list[int]:
+        """Each atom's complement (``p`` <-> ``not_p``, ``AB`` <-> ``NAB``); -1 for ``false``.
+
+        A complement the look-up lacks gets the next number from ``named`` on, in atom
+        order.  Whether it is lacking is decided per predicate: an atom is looked up only
+        when its predicate's complement occurs at all, which in a compiled model is rare.
         """
-        keys, ids = self.keys, self.ids
+        import numpy as np
+
+        ids = self.ids
+        other_of = {p: self._complement_predicate(p) for p in dict.fromkeys(map(_first, ids))}
+        if any(self._complement_predicate(q) != p for p, q in other_of.items()):
+            return self._complements_named()  # not_not_p: complements chain
+        complement = np.full(len(ids), -2, dtype=np.int64)  # -2: lacking
+        paired = {p for p, q in other_of.items() if q in other_of}
+        if paired:
+            keys = list(ids)
+            for a in compress(count(), map(paired.__contains__, map(_first, keys))):
+                pred, args = keys[a]
+                complement[a] = ids.get((other_of[pred], args), -2)
+        false_id = ids.get((FALSE, ()))
+        if false_id is not None:
+            complement[false_id] = -1  # false has no complement
+        lacking = np.flatnonzero(complement == -2)
+        complement[lacking] = np.arange(len(ids), len(ids) + len(lacking))
+        # the complement of an unnamed complement is the atom it complements
+        return np.concatenate((complement, lacking)).tolist()  # type: ignore[no-any-return]
+
+    def _complements_named(self) -> list[int]:
+        """:meth:`_complements` when complementing twice does not give the atom back
+        (``not_not_a`` -> ``not_a`` -> ``a``): every complement is named in ``ids``, in
+        rounds to a fixpoint, as a model with such predicates is small and hand-written."""
+        ids = dict(self.ids)
+        keys = list(ids)
         none = ""  # the "predicate" of a missing complement: no atom has it
-        other_of: dict[str, str] = {}
+        false_id = ids.get((FALSE, ()), -1)
         complement: list[int] = []
         done = 0
         while done < len(keys):
-            batch = keys[done:]
-            preds = list(map(_first, batch))
-            for pred in set(preds) - other_of.keys():
-                other_of[pred] = self._complement_predicate(pred) or none
-            wanted = list(zip(map(other_of.__getitem__, preds), map(_second, batch), strict=True))
-            false_at = ids.get((FALSE, ()), -1) - done
-            if 0 <= false_at < len(batch):
-                wanted[false_at] = (none, ())  # false has no complement
-            found = list(map(ids.get, wanted))
-            missing = [w for w, i in zip(wanted, found, strict=True) if i is None and w[0]]
-            new = list(dict.fromkeys(missing))
-            start = len(keys)
-            ids.update(zip(new, range(start, start + len(new)), strict=True))
-            keys.extend(new)
-            if len(new) == len(missing):  # distinct: numbered in the order they are missing
-                fresh = iter(range(start, start + len(new)))
-                found = [
-                    next(fresh) if i is None and w[0] else i
-                    for w, i in zip(wanted, found, strict=True)
-                ]
-            else:
-                found = [
-                    ids[w] if i is None and w[0] else i for w, i in zip(wanted, found, strict=True)
-                ]
-            complement.extend([-1 if i is None else i for i in found])
-            done += len(batch)
+            for a in range(done, len(keys)):
+                pred, args = keys[a]
+                wanted = (none, ()) if a == false_id else (self._complement_predicate(pred), args)
+                found = ids.get(wanted, -1)
+                if found < 0 and wanted[0]:
+                    found = _intern(ids, wanted)
+                    keys.append(wanted)
+                complement.append(found)
+            done = len(complement)
+        self.ids = ids
         return complement
 
     def _occurrences(self, bodies: Sequence[Sequence[int]]) -> list[Sequence[int]]:
@@ -170,7 +233,7 @@ class Index:
         occur in none and share one empty tuple: a list per atom is a hundred thousand
         allocations on a large model, and allocation is what scales worst there."""
         none: Sequence[int] = ()
-        occurs: list[Sequence[int]] = [none] * len(self.keys)
+        occurs: list[Sequence[int]] = [none] * self.count
         for k, body in enumerate(bodies):
             for a in body:
                 found = occurs[a]
@@ -180,46 +243,17 @@ class Index:
                     found.append(k)  # type: ignore[attr-defined]  # a list once non-empty
         return occurs
 
-    def _number(self, theory: Theory) -> tuple[list[int], list[list[int]]]:
-        """Number the atoms of the clauses (heads, then bodies) and props: the key order."""
-        by_object: dict[int, int] = {}
-        intern = self._intern
-
-        def atom_id(atom: Atom) -> int:
-            found = by_object.get(id(atom))
-            if found is None:
-                found = by_object[id(atom)] = intern(atom.predicate, atom.args)
-            return found
-
-        clauses = theory.clauses
-        heads = [atom_id(c.head) for c in clauses]
-        bodies = [[atom_id(a) for a in c.body] for c in clauses]
-        for k, body in enumerate(bodies):
-            if len(body) > 1 and len(set(body)) < len(body):
-                bodies[k] = list(dict.fromkeys(body))  # a repeated body atom counts once
-        for atom in theory.props:
-            atom_id(atom)
-        return heads, bodies
-
     @property
     def by_head(self) -> list[list[int]]:
         """The clauses deriving each atom (built on first use: only DRed needs it)."""
         if self._by_head is None:
-            by_head: list[list[int]] = [[] for _ in self.keys]
+            by_head: list[list[int]] = [[] for _ in range(self.count)]
             for k, h in enumerate(self.head):
                 by_head[h].append(k)
             self._by_head = by_head
         return self._by_head
 
-    def _intern(self, predicate: str, args: tuple[str, ...]) -> int:
-        key = (predicate, args)
-        found = self.ids.get(key)
-        if found is None:
-            found = self.ids[key] = len(self.keys)
-            self.keys.append(key)
-        return found
-
-    def _complement_predicate(self, pred: str) -> str | None:
+    def _complement_predicate(self, pred: str) -> str:
         theory = self.theory
         if pred == theory.ab:
             return theory.nab
@@ -229,21 +263,34 @@ class Index:
             return pred.removeprefix(theory.neg_prefix)
         return theory.neg_prefix + pred
 
-    def atom_id(self, atom: Atom) -> int | None:
-        return self.ids.get((atom.predicate, atom.args))
+    def number(self, key: Key) -> int | None:
+        """The atom ``key`` names, unnamed complements included; None when there is none."""
+        found = self.ids.get(key)
+        if found is None and self.count > self.named:
+            pred, args = key
+            other = self._complement_predicate(pred)
+            if self._complement_predicate(other) == pred:
+                atom = self.ids.get((other, args))
+                if atom is not None and self.complement[atom] >= self.named:
+                    return self.complement[atom]
+        return found
 
-    def _is_monotone(self) -> bool:
+    def is_ab(self, assumption: int) -> bool:
+        """Is the assumption atom AB(c), not NAB(c)?"""
+        return self.ab_id[self.component[assumption]] == assumption
+
+    def atom_id(self, atom: Atom) -> int | None:
+        return self.number((atom.predicate, atom.args))
+
+    def _is_monotone(self, ab_ids: list[int]) -> bool:
         """True when assuming AB(c) can never matter: AB only ever blocks NAB.
 
         Then Reiter's theory applies as is (Theorem 3.1): diagnoses are exactly the minimal
         hitting sets of the minimal conflicts.  Fault-mode rules break this.
         """
-        ab, nab = self.theory.ab, self.theory.nab
-        preds = list(map(_first, self.keys))
-        assumption = set(compress(count(), map({ab, nab}.__contains__, preds)))
-        if not assumption.isdisjoint(self.head):
+        if not self.component.keys().isdisjoint(self.head):
             return False
-        return not any(self.occurs[i] for i in compress(count(), map(ab.__eq__, preds)))
+        return not any(map(self.occurs.__getitem__, ab_ids))
 
     def literal_id(self, predicate: str, args: tuple[str, ...], positive: bool) -> int | None:
         """The atom of the literal ``predicate(args)`` (``not_predicate(args)`` when negative),
@@ -254,7 +301,7 @@ class Index:
             return None
         if positive and predicate.startswith(theory.neg_prefix):
             return None  # a literal never carries the prefix
-        return self.ids.get(key)
+        return self.number(key)
 
     def literal_atom(self, literal: Literal) -> int:
         found = self.literal_id(literal.atom.predicate, literal.atom.args, literal.positive)
@@ -272,7 +319,7 @@ class Index:
 
     def base_ids(self, observed: Sequence[int]) -> tuple[Base, tuple[int, ...]]:
         """:meth:`base` of Θ given as atom numbers (:meth:`observed_ids`)."""
-        true = bytearray(len(self.keys))
+        true = bytearray(self.count)
         missing = list(self.size)
         seeds = [self.head[k] for k in self.facts]
         seeds.extend(observed)
@@ -283,15 +330,17 @@ class Index:
 
     def _observed(self, observations: Sequence[Literal]) -> list[int]:
         # literal_id's common case inlined: tens of thousands of observations per call
-        ids, prefix, false_id = self.ids, self.theory.neg_prefix, self.false_id
-        excluded = {self.theory.ab, self.theory.nab}
+        ids, complement, prefix = self.ids, self.complement, self.theory.neg_prefix
+        excluded = {self.theory.ab, self.theory.nab, FALSE}
         found = []
         for lit in observations:
-            pred, args = lit.atom.predicate, lit.atom.args
+            pred = lit.atom.predicate
             i = None
             if pred not in excluded and not pred.startswith(prefix):
-                i = ids.get((pred, args) if lit.positive else (prefix + pred, args))
-            if i is None or i == false_id:
+                i = ids.get((pred, lit.atom.args))
+                if i is not None and not lit.positive:
+                    i = complement[i]
+            if i is None:
                 i = self.literal_atom(lit)  # the other cases, or RAC040
             found.append(i)
         return found
@@ -307,9 +356,12 @@ class Index:
             if pred in excluded or pred.startswith(prefix):
                 return None
             key = (pred, tuple(args.split(",")) if args else ())
-            i = ids.get(key)
-            if i is None or (i >= mentioned and not 0 <= complement[i] < mentioned):
-                return None  # unknown: the theory mentions neither the atom nor its negation
+            i = ids.get(key, -1)
+            if not 0 <= i < mentioned:  # then the theory must mention its negation
+                negative = ids.get((prefix + pred, key[1]), -1)
+                if not 0 <= negative < mentioned:
+                    return None  # unknown: the theory mentions neither
+                i = complement[negative]
             found.append(complement[i] if negation else i)
         return found
 
@@ -575,7 +627,7 @@ class Index:
 
     def assignment(self, bad: frozenset[str], strong: bool) -> list[int]:
         """AB(c) for c in bad (when ``strong``) and NAB(c) for every other component."""
-        seeds = [a for a in self.all_nab if self.assumption[a][0] not in bad]
+        seeds = [a for a in self.all_nab if self.component[a] not in bad]
         if strong:
             seeds.extend(self.ab_id[c] for c in sorted(bad))
         return seeds

@@ -406,7 +406,11 @@ def _rules(
 
 
 def _unique(
-    clauses: list[Clause], props: tuple[Atom, ...], atoms: _Atoms, numbers: Numbers | None
+    clauses: list[Clause],
+    props: tuple[Atom, ...],
+    atoms: _Atoms,
+    numbers: Numbers | None,
+    nab: dict[str, int],
 ) -> tuple[tuple[Clause, ...], ClauseTable | None]:
     """The distinct clauses in file order, and their table when the rules were numbered."""
     if numbers is None:
@@ -423,6 +427,7 @@ def _unique(
         ids=MappingProxyType(atoms.by_key),
         heads=tuple([heads[k] for k in kept]),
         bodies=tuple([tuple(dict.fromkeys(bodies[k])) for k in kept]),
+        nab=MappingProxyType(nab),
     )
     return unique, table
 
@@ -479,10 +484,17 @@ def _parse(text: str, file: str) -> Theory:
     errors.extend(rule_errors)
     if errors:
         raise RacError(errors, text)
+    # COMPS from the distinct atoms of the rules (rac.diagnosis.theory.components_of); the
+    # atoms are in number order, so the NAB numbers come with the same scan
+    comps: set[str] = set()
+    nab_numbers: dict[str, int] = {}
+    for number, a in enumerate(in_rules):
+        if a.predicate in (ab, nab) and len(a.args) == 1:
+            comps.add(a.args[0])
+            if a.predicate == nab:
+                nab_numbers[a.args[0]] = number
     distinct_props = tuple(dict.fromkeys(props))
-    unique, table = _unique(clauses, distinct_props, atoms, numbers)
-    # COMPS from the distinct atoms of the rules (rac.diagnosis.theory.components_of)
-    comps = {a.args[0] for a in in_rules if a.predicate in (ab, nab) and len(a.args) == 1}
+    unique, table = _unique(clauses, distinct_props, atoms, numbers, nab_numbers)
     return Theory(
         clauses=unique,
         props=distinct_props,

@@ -49,8 +49,9 @@ class HittingSetDag:
         if not result.clash:
             return None
         atoms = index.minimal_conflict(self.base, index.support(result))
-        nab = frozenset(index.assumption[a][0] for a in atoms if not index.assumption[a][1])
-        ab = frozenset(index.assumption[a][0] for a in atoms if index.assumption[a][1])
+        component = index.component
+        nab = frozenset(component[a] for a in atoms if not index.is_ab(a))
+        ab = frozenset(component[a] for a in atoms if index.is_ab(a))
         self.conflicts.append((nab, ab))
         return nab, ab
 
@@ -66,7 +67,7 @@ class HittingSetDag:
         for clash in self.full.clashes:
             assumed = _assumptions(why, index.body, clash, limit=2)
             if len(assumed) == 1:
-                found.add(index.assumption[assumed.pop()][0])
+                found.add(index.component[assumed.pop()])
         return frozenset(found)
 
     def run(self, max_card: int | None) -> Search:

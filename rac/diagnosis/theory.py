@@ -41,6 +41,8 @@ class ClauseTable:
     ids: MappingProxyType[Key, int] = field(compare=False)
     heads: tuple[int, ...]
     bodies: tuple[tuple[int, ...], ...]  # each body without repeated atoms
+    # component -> the number of its NAB atom, for the components whose NAB occurs
+    nab: MappingProxyType[str, int] = field(compare=False)
 
 
 @dataclass(frozen=True, slots=True)
