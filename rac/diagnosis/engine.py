@@ -184,26 +184,32 @@ class Index:
         order.  Whether it is lacking is decided per predicate: an atom is looked up only
         when its predicate's complement occurs at all, which in a compiled model is rare.
         """
-        import numpy as np
-
         ids = self.ids
         other_of = {p: self._complement_predicate(p) for p in dict.fromkeys(map(_first, ids))}
         if any(self._complement_predicate(q) != p for p, q in other_of.items()):
             return self._complements_named()  # not_not_p: complements chain
-        complement = np.full(len(ids), -2, dtype=np.int64)  # -2: lacking
         paired = {p for p, q in other_of.items() if q in other_of}
-        if paired:
+        false_id = ids.get((FALSE, ()), -1)
+        named = len(ids)
+        if not paired:  # the usual case: every complement lacks, but false's (it has none)
+            lacking = [*range(false_id), *range(false_id + 1, named)]
+            complement = list(range(named, named + len(lacking)))
+            if false_id >= 0:
+                complement.insert(false_id, -1)
+        else:
+            lacks = -2
+            complement = [lacks] * named
             keys = list(ids)
             for a in compress(count(), map(paired.__contains__, map(_first, keys))):
                 pred, args = keys[a]
-                complement[a] = ids.get((other_of[pred], args), -2)
-        false_id = ids.get((FALSE, ()))
-        if false_id is not None:
-            complement[false_id] = -1  # false has no complement
-        lacking = np.flatnonzero(complement == -2)
-        complement[lacking] = np.arange(len(ids), len(ids) + len(lacking))
-        # the complement of an unnamed complement is the atom it complements
-        return np.concatenate((complement, lacking)).tolist()  # type: ignore[no-any-return]
+                complement[a] = ids.get((other_of[pred], args), lacks)
+            if false_id >= 0:
+                complement[false_id] = -1  # false has no complement
+            # C loops (no numpy: a command on a small model would pay more for its import)
+            lacking = list(compress(count(), map(lacks.__eq__, complement)))
+            any(map(complement.__setitem__, lacking, count(named)))
+        complement.extend(lacking)  # an unnamed complement's complement is its atom
+        return complement
 
     def _complements_named(self) -> list[int]:
         """:meth:`_complements` when complementing twice does not give the atom back
