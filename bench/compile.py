@@ -25,6 +25,7 @@ import tempfile
 import time
 from collections.abc import Callable
 from functools import partial
+from itertools import pairwise
 from pathlib import Path
 from typing import TypeVar
 
@@ -239,6 +240,11 @@ def main() -> int:
                 print(f"    {'racc compile --no-svg':<30} {cli_compile(path) * 1000:9.1f} ms")
             totals[size] = best["end to end"]
             del compiled, model
+    sizes = sorted(totals)
+    for small, large in pairwise(sizes):
+        # Beyond the processor's caches (10k and up) the ratio is the algorithm's alone.
+        ratio = totals[large] / totals[small]
+        print(f"{large}/{small} nodes ({large / small:g}x): end-to-end time ratio {ratio:.2f}")
     if 1000 in totals and 10000 in totals:
         ratio = totals[10000] / totals[1000]
         verdict = "within" if ratio <= RATIO_BAR else "OVER"
