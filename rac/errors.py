@@ -209,4 +209,5 @@ CODES: dict[str, str] = {
     "RAC104": "a feedback loop in the data flow (note)",
     "RAC105": "a feedback loop too large for the exact loop rule",
     "RAC106": "part of an imported configuration has no counterpart (note)",
+    "RAC107": "the ground truth names another robot",
 }

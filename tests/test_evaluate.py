@@ -86,3 +86,20 @@ def test_evaluate_needs_ground_truth(tmp_path: Path, capsys: pytest.CaptureFixtu
     (tmp_path / "r.faults.yaml").unlink()
     assert main(["evaluate", "--models", PIONEER, "--runs", str(bag)]) == 1
     assert "RAC052" in capsys.readouterr().err
+
+
+def test_evaluate_checks_the_ground_truth_against_the_models(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bag = tmp_path / "r.bag"
+    assert main(["synth", PIONEER, "-o", str(bag), "--duration", "20", "-q"]) == 0
+    truth = tmp_path / "r.faults.yaml"
+    fault = "- {kind: crash, target: p2os, start: 5, end: 10, culprits: [p2os]}\n"
+    truth.write_text("robot: pioneer\nduration: 20\nfaults:\n" + fault)
+    tedusar = str(ROOT / "models" / "tedusar.ram")
+    # a culprit in one of the models is what an evaluation compares; in none, a mistake
+    assert main(["evaluate", "--models", PIONEER, tedusar, "--runs", str(bag), "-q"]) == 0
+    assert main(["evaluate", "--models", tedusar, "--runs", str(bag), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "error[RAC086]: culprit 'p2os' of the crash fault is not in 'tedusar'" in err
+    assert "warning[RAC107]" in err  # printed with the error, -q or not

@@ -123,6 +123,27 @@ def test_replay_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> No
     assert exit_.value.code == 2
 
 
+def test_ground_truth_is_checked_against_the_model(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = tmp_path / "r.bag"
+    assert main(["synth", PIONEER, "-o", str(run), "--duration", "20", "-q"]) == 0
+    truth = tmp_path / "typo.faults.yaml"
+    truth.write_text(
+        "robot: pioneer\nduration: 20\nfaults:\n"
+        "- {kind: crash, target: p2os, start: 5, end: 10, culprits: [p2oss]}\n"
+    )
+    assert main(["replay", PIONEER, str(run), "--truth", str(truth)]) == 1
+    err = capsys.readouterr().err
+    assert f"{truth}:4:3: error[RAC086]: culprit 'p2oss' of the crash fault is not in" in err
+    assert "did you mean 'p2os'" in err
+    truth.write_text("robot: tedusar\nduration: 20\nfaults: []\n")
+    assert main(["replay", PIONEER, str(run), "--truth", str(truth)]) == 0
+    assert "warning[RAC107]: the ground truth is for robot 'tedusar', not 'pioneer'" in (
+        capsys.readouterr().err
+    )
+
+
 def _has_matplotlib() -> bool:
     try:
         import matplotlib  # noqa: F401

@@ -281,7 +281,7 @@ def test_round_trip_through_load_truth(tmp_path: Path) -> None:
     path = tmp_path / "t.faults.yaml"
     path.write_text(dump_truth(truth, "t.bag"))
     assert load_truth(path) == truth
-    assert check_truth(load_truth(path), model) == []
+    assert check_truth(load_truth(path), [model]) == []
     odd = GroundTruth(
         "yes",
         12.345678,
@@ -318,11 +318,19 @@ faults:
     )
     assert [f.kind for f in truth.active(45.0)] == ["power"]
     assert truth.active(55.5) == ()
-    assert check_truth(truth, load_model(TEDUSAR)) == []
-    wrong = check_truth(truth, load_model(PIONEER))
-    assert [d.code for d in wrong] == ["RAC086", "RAC086"]
-    assert wrong[0].span is not None and (wrong[0].span.line, wrong[0].span.column) == (5, 5)
-    assert "culprit 'hokuyo' of the power fault is not in pioneer" in wrong[0].message
+    assert check_truth(truth, [load_model(TEDUSAR)]) == []
+    wrong = check_truth(truth, [load_model(PIONEER)])
+    assert [(d.code, d.is_error) for d in wrong] == [
+        ("RAC107", False),
+        ("RAC086", True),
+        ("RAC086", True),
+    ]
+    assert "for robot 'tedusar', not 'pioneer'" in wrong[0].message
+    assert wrong[1].span is not None and (wrong[1].span.line, wrong[1].span.column) == (5, 5)
+    assert "culprit 'hokuyo' of the power fault is not in 'pioneer'" in wrong[1].message
+    # several models: a culprit is wrong only when none of them has it; no robot check
+    both = check_truth(truth, [load_model(PIONEER), load_model(TEDUSAR)], robot=False)
+    assert both == []
 
 
 GOOD_HEAD = "robot: r\nduration: 60.0\nfaults:\n"
@@ -400,4 +408,4 @@ def test_the_documented_examples_load() -> None:
     )
     written = parse_truth(blocks[1], "doc")
     assert [f.end for f in written.faults] == [55.5, 120.0]
-    assert check_truth(written, load_model(TEDUSAR)) == []
+    assert check_truth(written, [load_model(TEDUSAR)]) == []

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import errno
 import os
 import shutil
 import sys
 import tempfile
 import textwrap
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -18,6 +19,7 @@ from rac.errors import Diagnostic, RacError
 if TYPE_CHECKING:  # the compiler loads on first use: not every command compiles a model
     from rac.ir import Model
     from rac.pipeline import Compiled
+    from rac.synth.truth import GroundTruth
 
 
 _RUN = "\0"  # joins a run of values: no command-line argument can hold a NUL
@@ -146,6 +148,26 @@ def print_warnings(diagnostics: tuple[Diagnostic, ...], source: str | None) -> N
     warnings = [d for d in diagnostics if not d.is_error]
     if warnings:
         print(RacError(warnings, source).render(), file=sys.stderr)
+
+
+def checked_truth(
+    truth: GroundTruth, models: Sequence[Model], *, quiet: bool, robot: bool = True
+) -> None:
+    """Stop (RAC086) when a culprit of the ground truth is in none of ``models``: every
+    diagnosis would be scored wrong.  The RAC107 warning (another robot) unless ``quiet``."""
+    from rac.synth.truth import check_truth
+
+    found = check_truth(truth, models, robot)
+    if not found:
+        return
+    source = None
+    # without the text, the messages still name the file, line and column
+    with contextlib.suppress(OSError, UnicodeDecodeError):
+        source = Path(truth.span.file).read_text(encoding="utf-8") if truth.span else None
+    if any(d.is_error for d in found):
+        raise RacError(found, source)
+    if not quiet:
+        print_warnings(tuple(found), source)
 
 
 def load_and_compile(path: str, *, quiet: bool = False) -> Compiled:

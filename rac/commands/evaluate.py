@@ -9,7 +9,13 @@ import textwrap
 from pathlib import Path
 from typing import Any
 
-from rac.commands.common import add_command, load_and_compile, load_checked, write_file_atomically
+from rac.commands.common import (
+    add_command,
+    checked_truth,
+    load_and_compile,
+    load_checked,
+    write_file_atomically,
+)
 from rac.commands.replay import add_replay_options
 from rac.errors import Diagnostic, RacError
 from rac.evaluate.evaluation import Candidate
@@ -127,6 +133,7 @@ def run(args: argparse.Namespace) -> int:
     _check(args)
     candidates = _given(args.models) if args.models else _learned(args, quiet=args.quiet)
     needs = needs_of([c.model for c in candidates])
+    models = [c.model.theory.model for c in candidates if c.model.theory.model is not None]
     runs = []
     for path in args.runs:
         truth = truth_for([path], None)
@@ -136,6 +143,7 @@ def run(args: argparse.Namespace) -> int:
             )
             message = f"{path}: no ground truth (expected the faults file beside it)"
             raise RacError([Diagnostic("RAC052", message, hint=hint)])
+        checked_truth(truth, models, quiet=args.quiet, robot=bool(args.models or args.base))
         inputs = load_runs([path], properties_for([path], []), needs)
         if not args.quiet:
             for note in inputs.notes:

@@ -10,7 +10,12 @@ import time
 from pathlib import Path
 from typing import Any
 
-from rac.commands.common import add_command, load_and_compile, write_file_atomically
+from rac.commands.common import (
+    add_command,
+    checked_truth,
+    load_and_compile,
+    write_file_atomically,
+)
 
 _DURATION = re.compile(r"\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*(ms|s)?\s*")
 MAX_PERIOD_S = 3600.0
@@ -105,6 +110,8 @@ def run(args: argparse.Namespace) -> int:
 
     model = replayable(load_and_compile(args.model, quiet=args.quiet))
     truth = truth_for(args.runs, args.truth)
+    if truth is not None and model.theory.model is not None:
+        checked_truth(truth, [model.theory.model], quiet=args.quiet)
     started = time.perf_counter()
     inputs = load_runs(args.runs, properties_for(args.runs, args.properties), needs_of([model]))
     if not args.quiet:

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import yaml
 
-from rac.errors import Diagnostic, RacError, Span, did_you_mean
+from rac.errors import Diagnostic, RacError, Severity, Span, did_you_mean
 from rac.ir import Model
 from rac.synth.faults import FAULT_KINDS, Fault
 
@@ -288,14 +288,24 @@ def load_truth(path: str | Path) -> GroundTruth:
     return parse_truth(text, str(path))
 
 
-def check_truth(truth: GroundTruth, model: Model) -> list[Diagnostic]:
-    """RAC086 for every culprit that is neither a node nor hardware of ``model``."""
-    components = set(model.node_by_name()) | set(model.hardware_by_name())
+def check_truth(
+    truth: GroundTruth, models: Sequence[Model], robot: bool = True
+) -> list[Diagnostic]:
+    """RAC086 for every culprit that is a node or hardware of none of ``models``; with
+    ``robot``, a RAC107 warning when none of them is the robot the file names (a learned
+    model without a base is named after its recording, so its name says nothing)."""
+    components = set().union(*(set(m.node_by_name()) | set(m.hardware_by_name()) for m in models))
+    names = sorted({m.name.value for m in models})
     out = []
+    where = f"'{names[0]}'" if len(names) == 1 else "any of the models"
+    if robot and names and truth.robot not in names:
+        message = f"the ground truth is for robot '{truth.robot}', not {where}"
+        advice = "scores mean something only against the robot the recording was made on"
+        out.append(Diagnostic("RAC107", message, truth.span, Severity.WARNING, advice))
     for f in truth.faults:
         for culprit in f.culprits:
             if culprit not in components:
-                message = f"culprit '{culprit}' of the {f.kind} fault is not in {model.name.value}"
+                text = f"culprit '{culprit}' of the {f.kind} fault is not in {where}"
                 hint = did_you_mean(culprit, components)
-                out.append(Diagnostic("RAC086", message, f.span, hint=hint))
+                out.append(Diagnostic("RAC086", text, f.span, hint=hint))
     return out
