@@ -142,3 +142,22 @@ def test_learned_candidates_give_values_and_pairs(tmp_path: Path) -> None:
     out = tmp_path / "patch"
     assert main(["place", LOOP, "--candidates", str(learned), "-o", str(out)]) == 0
     assert "topic /map : nav_msgs/OccupancyGrid @ 2 Hz" in out.read_text()
+
+
+def test_a_topic_learned_without_a_rate_gets_no_gobs(tmp_path: Path) -> None:
+    from rac.analysis.place import candidates
+    from rac.loader import load_model
+
+    model = load_model(TEDUSAR)
+    text = Path(TEDUSAR).read_text()
+    # the recording: /map came at a steady 2 Hz, /joy and /cmd_vel had no steady rate
+    text = text.replace(
+        "{ info.width, info.height, data }", "{ info.width, info.height, data } @ 2 Hz"
+    )
+    learned = tmp_path / "learned.ram"
+    learned.write_text(text)
+    unlearned = {c.name for c in candidates(model)}
+    assert {"GObs /joy", "GObs /cmd_vel", "GObs /map"} <= unlearned
+    with_learned = {c.name: c for c in candidates(model, load_model(str(learned)))}
+    assert "GObs /joy" not in with_learned and "GObs /cmd_vel" not in with_learned
+    assert with_learned["GObs /map"].value == 2.0

@@ -1,6 +1,7 @@
 """Observer placement: the cheapest added observers that make the detectable faults isolable.
 
-**Candidates.**  A GObs on each published topic without a rate, a PObs on each node without a
+**Candidates.**  A GObs on each published topic without a rate (but one a learned model has
+without a rate: the recording found it irregular), a PObs on each node without a
 CPU (else memory) limit, a DObs for each device a node drives and does not report (when the
 device is already a component), and from a learned model its rates, limits, relations and
 intervals (BiQObs/IObs pairs the model lacks).
@@ -128,6 +129,8 @@ def candidates(
         t = topic.name.value
         if topic.regular or t not in publishers:
             continue
+        if t in learned_topics and learned_topics[t].rate_hz is None:
+            continue  # the recording found no steady rate: a GObs would report false faults
         rate = learned_topics[t].rate_hz if t in learned_topics else None
         found.append(
             Candidate("GObs", t, ((_ok_cond(t),),), cost("GObs", t), rate, learned=rate is not None)
