@@ -38,3 +38,15 @@ def golden(update_goldens: bool) -> Callable[[Path, str], None]:
         assert_golden(path, text, update_goldens)
 
     return check
+
+
+@pytest.fixture
+def short_pioneer_run(tmp_path: Path) -> Path:
+    """A 20 s synthetic recording of models/pioneer.ram (``racc synth``), without faults,
+    with its ground truth ``r.faults.yaml`` beside it."""
+    from rac.cli import main
+
+    run = tmp_path / "r.bag"
+    pioneer = Path(__file__).resolve().parent.parent / "models" / "pioneer.ram"
+    assert main(["synth", str(pioneer), "-o", str(run), "--duration", "20", "-q"]) == 0
+    return run

@@ -80,20 +80,20 @@ def test_given_models_and_the_text_report(
     assert "McNemar's exact test" in text
 
 
-def test_evaluate_needs_ground_truth(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    bag = tmp_path / "r.bag"
-    assert main(["synth", PIONEER, "-o", str(bag), "--duration", "20", "-q"]) == 0
-    (tmp_path / "r.faults.yaml").unlink()
+def test_evaluate_needs_ground_truth(
+    short_pioneer_run: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bag = short_pioneer_run
+    bag.with_name("r.faults.yaml").unlink()
     assert main(["evaluate", "--models", PIONEER, "--runs", str(bag)]) == 1
     assert "RAC052" in capsys.readouterr().err
 
 
 def test_evaluate_checks_the_ground_truth_against_the_models(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    short_pioneer_run: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    bag = tmp_path / "r.bag"
-    assert main(["synth", PIONEER, "-o", str(bag), "--duration", "20", "-q"]) == 0
-    truth = tmp_path / "r.faults.yaml"
+    bag = short_pioneer_run
+    truth = bag.with_name("r.faults.yaml")
     fault = "- {kind: crash, target: p2os, start: 5, end: 10, culprits: [p2os]}\n"
     truth.write_text("robot: pioneer\nduration: 20\nfaults:\n" + fault)
     tedusar = str(ROOT / "models" / "tedusar.ram")

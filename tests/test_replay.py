@@ -106,11 +106,12 @@ def test_a_ros2_bag_replays(tmp_path: Path, capsys: pytest.CaptureFixture[str]) 
     assert "fault crash hector_mapping 30-50 s: reported" in out
 
 
-def test_replay_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_replay_errors(
+    tmp_path: Path, short_pioneer_run: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert main(["replay", PIONEER, str(tmp_path / "missing.bag")]) == 1
     assert "RAC080" in capsys.readouterr().err
-    run = tmp_path / "r.bag"
-    assert main(["synth", PIONEER, "-o", str(run), "--duration", "20", "-q"]) == 0
+    run = short_pioneer_run
     assert main(["replay", PIONEER, str(run), str(run), "--properties", "a.csv"]) == 1
     assert "RAC051" in capsys.readouterr().err
     other = tmp_path / "other.ram"
@@ -124,11 +125,10 @@ def test_replay_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> No
 
 
 def test_ground_truth_is_checked_against_the_model(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    short_pioneer_run: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    run = tmp_path / "r.bag"
-    assert main(["synth", PIONEER, "-o", str(run), "--duration", "20", "-q"]) == 0
-    truth = tmp_path / "typo.faults.yaml"
+    run = short_pioneer_run
+    truth = run.with_name("typo.faults.yaml")
     truth.write_text(
         "robot: pioneer\nduration: 20\nfaults:\n"
         "- {kind: crash, target: p2os, start: 5, end: 10, culprits: [p2oss]}\n"
