@@ -37,8 +37,8 @@ class ObserverSpec:
     atoms: tuple[Atom, ...]  # what it reports (each also negated)
 
 
-def gobs_params(topic: Topic) -> tuple[tuple[str, ParamValue], ...]:
-    """δ = 1/rate, the interval deviation from the rate tolerance, ω, θ."""
+def gobs_timing(topic: Topic) -> tuple[float, float, float]:
+    """δ = 1/rate, the interval deviation from the rate tolerance and ω, unrounded."""
     assert topic.rate_hz is not None
     rate = topic.rate_hz
     tolerance = topic.rate_tolerance_hz
@@ -48,6 +48,12 @@ def gobs_params(topic: Topic) -> tuple[tuple[str, ParamValue], ...]:
     # The slower edge of the band is the wider one in interval terms.
     dev = 1.0 / (rate - tolerance) - delta
     window = topic.window_s if topic.window_s is not None else DEFAULT_WINDOW_OCCURRENCES * delta
+    return delta, dev, window
+
+
+def gobs_params(topic: Topic) -> tuple[tuple[str, ParamValue], ...]:
+    """δ = 1/rate, the interval deviation from the rate tolerance, ω, θ."""
+    delta, dev, window = gobs_timing(topic)
     mismatch = topic.mismatch_threshold
     if mismatch is None:
         mismatch = DEFAULT_MISMATCH_THRESHOLD

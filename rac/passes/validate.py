@@ -7,17 +7,20 @@ warnings do not.
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 from collections import defaultdict
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from itertools import chain
+from operator import attrgetter
 
 from rac.errors import Diagnostic, Severity, Span, did_you_mean
 from rac.ir import FieldRef, Model, Name
-from rac.limits import MAX_NAME, name_problem, number_problem, shown_name
+from rac.limits import MAX_NAME, NUMBER_MAX, name_problem, number_problem, shown_name
 from rac.logic import integral_arg, mangle
 from rac.passes.loops import find_loops, is_exact
-from rac.passes.observers import gobs_params
+from rac.passes.observers import gobs_timing
 
 Rule = Callable[[Model], Iterable[Diagnostic]]
 
@@ -38,10 +41,10 @@ def _warning(code: str, message: str, span: Span | None, hint: str | None = None
 
 def check_names(model: Model) -> Iterator[Diagnostic]:
     """Node and topic names are ROS names; hardware and the robot are identifiers."""
-    ros_names = [*(n.name for n in model.nodes), *(t.name for t in model.topics)]
+    ros_names = [*map(_NAME, model.nodes), *map(_NAME, model.topics)]
     # All valid (the usual case) in one regex call over the names one a line, rather than
     # one call per name; any doubt and each name is looked at.
-    lines = "".join([f"{n.value}\n" for n in ros_names])
+    lines = "\n".join(map(_VALUE, ros_names)) + "\n" if ros_names else ""
     if lines.count("\n") != len(ros_names) or _ROS_NAMES.fullmatch(lines) is None:
         kinds = ["node"] * len(model.nodes) + ["topic"] * len(model.topics)
         for name, kind in zip(ros_names, kinds, strict=True):
@@ -60,35 +63,43 @@ def _check_name_sets(model: Model) -> Iterator[Diagnostic]:
     """Every name within its documented character set and length (RAC008).
 
     Node, topic, hardware and robot names are checked above (RAC028), and only for length
-    here; fields, message types and reported devices have their own sets.
+    here; fields, message types and reported devices have their own sets.  Each distinct
+    name is checked once (a few field names recur thousands of times in a large model),
+    and only when one is wrong are the names looked at one by one, in model order.
     """
-    for name in [
-        model.name,
-        *(h.name for h in model.hardware),
-        *(n.name for n in model.nodes),
-        *(t.name for t in model.topics),
-    ]:
-        if len(name.value) > MAX_NAME:
-            message = f"name {shown_name(name.value)} is too long (at most {MAX_NAME} characters)"
-            yield _error("RAC008", message, name.span)
+    declared = [model.name, *map(_NAME, model.hardware), *map(_NAME, model.nodes)]
+    declared += map(_NAME, model.topics)
+    if max(map(len, map(_VALUE, declared))) > MAX_NAME:
+        for name in declared:
+            if len(name.value) > MAX_NAME:
+                message = (
+                    f"name {shown_name(name.value)} is too long (at most {MAX_NAME} characters)"
+                )
+                yield _error("RAC008", message, name.span)
+    fields = list(chain.from_iterable(map(_FIELDS, model.topics)))
+    devices = list(chain.from_iterable(map(_DIAGNOSTICS, model.nodes)))
+    types = {t.msg_type for t in model.topics if t.msg_type is not None}
+    distinct = [("field", set(map(_VALUE, fields))), ("device", set(map(_VALUE, devices)))]
+    distinct.append(("message type", types))
+    if all(name_problem(kind, value) is None for kind, values in distinct for value in values):
+        return
     typed: list[tuple[str, str, Span | None]] = [
-        *(("field", f.value, f.span) for t in model.topics for f in t.fields),
-        *(("device", d.value, d.span) for n in model.nodes for d in n.diagnostics),
+        *(("field", f.value, f.span) for f in fields),
+        *(("device", d.value, d.span) for d in devices),
     ]
     typed.extend(
         ("message type", t.msg_type, t.span) for t in model.topics if t.msg_type is not None
     )
-    # Each distinct name checked once: a few field names and message types recur thousands
-    # of times in a large model.
-    problems: dict[tuple[str, str], str | None] = {}
     for kind, value, span in typed:
-        key = (kind, value)
-        if key in problems:
-            problem = problems[key]
-        else:
-            problem = problems[key] = name_problem(kind, value)
+        problem = name_problem(kind, value)
         if problem is not None:
             yield _error("RAC008", f"{kind} name {shown_name(value)} {problem}", span)
+
+
+_NAME = attrgetter("name")
+_VALUE = attrgetter("value")
+_FIELDS = attrgetter("fields")
+_DIAGNOSTICS = attrgetter("diagnostics")
 
 
 def check_duplicates(model: Model) -> Iterator[Diagnostic]:
@@ -270,8 +281,44 @@ def check_channels(model: Model) -> Iterator[Diagnostic]:
 
 def check_ranges(model: Model) -> Iterator[Diagnostic]:
     """Every number within the documented limits (RAC007), whichever format it came from."""
-    # (what, its name, value, span): ``what.format(name)`` is written only for a bad number,
-    # as a large model has tens of thousands of numbers and nearly never a bad one.
+    if not _numbers_in_range(model):
+        yield from _number_problems(model)
+        return
+    for t in model.topics:  # a tiny rate (or rate - tolerance) has no finite period
+        tol = t.rate_tolerance_hz
+        if t.rate_hz is None or t.rate_hz <= 0 or (tol is not None and not 0 <= tol < t.rate_hz):
+            continue  # check_values reports these
+        if not all(map(math.isfinite, gobs_timing(t))):
+            message = (
+                f"topic '{t.name.value}': rate {t.rate_hz:g} Hz is too close to 0 "
+                "(or to its tolerance): its period is not a finite number"
+            )
+            yield _error("RAC007", message, t.span)
+
+
+def _numbers(model: Model) -> Iterator[float | int | None]:
+    for t in model.topics:
+        yield from (t.rate_hz, t.rate_tolerance_hz, t.window_s, t.mismatch_threshold)
+    for n in model.nodes:
+        yield from (n.limits.cpu, n.limits.mem)
+    yield from (h.channel for h in model.hardware)
+    yield from (iv.max_diff for iv in model.intervals)
+
+
+def _numbers_in_range(model: Model) -> bool:
+    """Every number of the model finite and within ±NUMBER_MAX: the usual case, decided
+    without writing what each number is."""
+    given = [v for v in _numbers(model) if v is not None]
+    if not given:
+        return True
+    if not (min(given) >= -NUMBER_MAX and max(given) <= NUMBER_MAX):
+        return False  # an infinity, a huge number, or a NaN that comparisons skip over
+    return not any(map(math.isnan, given))  # every number converts: none is that large
+
+
+def _number_problems(model: Model) -> Iterator[Diagnostic]:
+    """RAC007 for each number out of range, with what it is (rac.limits.number_problem)."""
+    # (what, its name, value, span): ``what.format(name)`` is written only for a bad number.
     found: list[tuple[str, str, float | int | None, Span | None]] = []
     for t in model.topics:
         name = t.name.value
@@ -289,28 +336,13 @@ def check_ranges(model: Model) -> Iterator[Diagnostic]:
         ]
     found += [("hardware '{}': channel", h.name.value, h.channel, h.span) for h in model.hardware]
     found += [("an interval's 'within' bound", "", iv.max_diff, iv.span) for iv in model.intervals]
-    bad = False
     for what, name, value, span in found:
         if value is None:
             continue
         problem = number_problem(value)
         if problem is not None:
-            bad = True
             shown = f"{value:g}" if abs(value) < 1e300 else "(a huge number)"
             yield _error("RAC007", f"{what.format(name)} {shown} is {problem}", span)
-    if bad:
-        return
-    for t in model.topics:  # a tiny rate (or rate - tolerance) has no finite period
-        tol = t.rate_tolerance_hz
-        if t.rate_hz is None or t.rate_hz <= 0 or (tol is not None and not 0 <= tol < t.rate_hz):
-            continue  # check_values reports these
-        params = gobs_params(t)
-        if any(isinstance(v, float) and not math.isfinite(v) for _, v in params):
-            message = (
-                f"topic '{t.name.value}': rate {t.rate_hz:g} Hz is too close to 0 "
-                "(or to its tolerance): its period is not a finite number"
-            )
-            yield _error("RAC007", message, t.span)
 
 
 def check_values(model: Model) -> Iterator[Diagnostic]:
@@ -343,33 +375,18 @@ def check_values(model: Model) -> Iterator[Diagnostic]:
 
 def check_mangling(model: Model) -> Iterator[Diagnostic]:
     """Different names must not become the same atom argument (docs/spec.md)."""
-    groups: list[tuple[str, list[Name]]] = [
-        ("component", [*(h.name for h in model.hardware), *(n.name for n in model.nodes)]),
-        ("topic", [t.name for t in model.topics]),
-    ]
-    # ok/1 is reported for topics (GObs) and for devices on /diagnostics (DObs), hardware
-    # or not; clashes among topics alone or hardware alone are reported by the groups above.
+    # Each distinct name is mangled once: topic names appear in two groups, and a few field
+    # names recur in thousands of topics.
+    atom_of = functools.lru_cache(maxsize=None)(_atom_arg)
     hardware = {h.name.value for h in model.hardware}
     topics = {t.name.value for t in model.topics}
-    devices = [d for n in model.nodes for d in n.diagnostics]
-    groups.append(("topic or reported device", [*(t.name for t in model.topics), *devices]))
-    # matched(...) names an integrated side I_<field>: it must not meet a declared field.
-    integrated: dict[str, list[Name]] = defaultdict(list)
-    for rel in model.related:
-        for ref in (rel.a, rel.b):
-            if ref.integrated:
-                integrated[ref.topic].append(Name(f"I({ref.field})", ref.span))
-    groups.extend(
-        (f"field of {t.name.value}", [*t.fields, *integrated.get(t.name.value, ())])
-        for t in model.topics
-    )
-    for kind, names in groups:
+    for kind, names in _mangling_groups(model, atom_of):
         values = {n.value for n in names}
-        if len({_atom_arg(v) for v in values}) == len(values):
+        if _one_atom_each(values, atom_of):
             continue  # every atom comes from one name: nothing clashes (the usual case)
         by_atom: dict[str, list[Name]] = defaultdict(list)
         for name in names:
-            by_atom[_atom_arg(name.value)].append(name)
+            by_atom[atom_of(name.value)].append(name)
         for atom, clash in by_atom.items():
             distinct = sorted({n.value for n in clash})
             seen_above = set(distinct) <= topics or set(distinct) <= hardware
@@ -380,6 +397,39 @@ def check_mangling(model: Model) -> Iterator[Diagnostic]:
                 if any(d.startswith("I(") for d in distinct):
                     hint += "; I(FIELD) becomes I_FIELD"
                 yield _error("RAC027", msg, clash[-1].span or first.span, hint)
+
+
+def _one_atom_each(values: set[str], atom_of: Callable[[str], str]) -> bool:
+    return len(set(map(atom_of, values))) == len(values)
+
+
+def _mangling_groups(
+    model: Model, atom_of: Callable[[str], str]
+) -> Iterator[tuple[str, Sequence[Name]]]:
+    """The groups of names whose atom arguments must differ, in the order reported; groups
+    that cannot clash, as a cheaper check over all of them shows, are left out."""
+    yield "component", [*(h.name for h in model.hardware), *(n.name for n in model.nodes)]
+    # ok/1 is reported for topics (GObs) and for devices on /diagnostics (DObs), hardware
+    # or not; clashes among topics alone or hardware alone are reported by the groups above.
+    # Topics are a part of the second group: when it has no clash, neither do they.
+    devices = [d for n in model.nodes for d in n.diagnostics]
+    reported = [*(t.name for t in model.topics), *devices]
+    if not _one_atom_each({n.value for n in reported}, atom_of):
+        yield "topic", [t.name for t in model.topics]
+        yield "topic or reported device", reported
+    # matched(...) names an integrated side I_<field>: it must not meet a declared field.
+    integrated: dict[str, list[Name]] = defaultdict(list)
+    for rel in model.related:
+        for ref in (rel.a, rel.b):
+            if ref.integrated:
+                integrated[ref.topic].append(Name(f"I({ref.field})", ref.span))
+    # Two fields of one topic can clash only if two field names of the whole model do.
+    every_field = {f.value for t in model.topics for f in t.fields}
+    fields_may_clash = not _one_atom_each(every_field, atom_of)
+    for t in model.topics:
+        extra = integrated.get(t.name.value, ())
+        if (fields_may_clash or extra) and len(t.fields) + len(extra) > 1:
+            yield f"field of {t.name.value}", [*t.fields, *extra]
 
 
 def _atom_arg(name: str) -> str:
