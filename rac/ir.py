@@ -9,9 +9,17 @@ from source carries a :class:`~rac.errors.Span`; models read from JSON carry
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Any, Protocol
 
 from rac.errors import Span
+
+
+class _Named(Protocol):
+    @property
+    def name(self) -> Name: ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -164,14 +172,23 @@ class Model:
         default_factory=dict, init=False, compare=False, hash=False, repr=False
     )
 
-    def hardware_by_name(self) -> dict[str, Hardware]:
-        return {h.name.value: h for h in self.hardware}
+    def hardware_by_name(self) -> Mapping[str, Hardware]:
+        return self._by_name("hardware", self.hardware)
 
-    def topic_by_name(self) -> dict[str, Topic]:
-        return {t.name.value: t for t in self.topics}
+    def topic_by_name(self) -> Mapping[str, Topic]:
+        return self._by_name("topics", self.topics)
 
-    def node_by_name(self) -> dict[str, Node]:
-        return {n.name.value: n for n in self.nodes}
+    def node_by_name(self) -> Mapping[str, Node]:
+        return self._by_name("nodes", self.nodes)
+
+    def _by_name(self, kind: str, items: tuple[_Named, ...]) -> Mapping[str, Any]:
+        """Declarations by name (the last of a duplicated name), built once per model: the
+        passes and emitters ask for them again and again."""
+        found = self._memo.get(kind)
+        if found is None:  # a dict in the memo: a model is pickled for worker processes
+            found = self._memo[kind] = {i.name.value: i for i in items}
+        assert isinstance(found, dict)
+        return MappingProxyType(found)
 
     def publishers(self) -> dict[str, tuple[str, ...]]:
         """Topic name -> names of the nodes publishing it, in declaration order."""

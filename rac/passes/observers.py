@@ -6,6 +6,7 @@ dissertation's observer nodes take (names as in §6.2.2's launch file).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 from rac.ir import FieldRef, Model, Topic
@@ -140,7 +141,7 @@ def derive_observers(model: Model) -> tuple[ObserverSpec, ...]:
 
 
 def biqobs_params(
-    a: FieldRef, b: FieldRef, topics: dict[str, Topic]
+    a: FieldRef, b: FieldRef, topics: Mapping[str, Topic]
 ) -> tuple[tuple[str, ParamValue], ...]:
     """Each side's topic, field and whether it is integrated, the regression window ws
     and θ.
