@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from ram_strategies import models
 
 from rac.errors import Diagnostic
-from rac.ir import FieldRef, Limits, Model, Name, Related
+from rac.ir import FieldRef, Limits, Model, Name, Related, Topic
 from rac.limits import MAX_NAME, name_problem, number_problem, shown_name
 from rac.logic import integral_arg, mangle
 from rac.passes import validate
@@ -131,45 +131,48 @@ _NUMBERS = [math.nan, math.inf, -math.inf, 1e16, -1e16, 1e-320, 5e-324, -5.0, 0.
 _NAMES = ["a.b", "a_b", "a-b", "x" * (MAX_NAME + 1), "b@d", "", "yaw", "I_yaw", "Ω", "/t/x"]
 
 
+_DAMAGE = ["number", "field", "clash", "type", "device", "name", "long", "integral", "alias"]
+
+
 @st.composite
 def damaged_models(draw: st.DrawFn) -> Model:
     model: Model = draw(models())
     topics, nodes, hardware = list(model.topics), list(model.nodes), list(model.hardware)
     related = list(model.related)
-    for _ in range(draw(st.integers(0, 4))):
-        what = draw(st.sampled_from(["number", "field", "type", "device", "name", "integral"]))
-        if what == "number" and topics:
-            k = draw(st.integers(0, len(topics) - 1))
+    replace = dataclasses.replace
+    for what in draw(st.lists(st.sampled_from(_DAMAGE), max_size=4)):
+        number, name = draw(st.sampled_from(_NUMBERS)), Name(draw(st.sampled_from(_NAMES)))
+        t = draw(st.integers(0, len(topics) - 1)) if topics else -1
+        n = draw(st.integers(0, len(nodes) - 1)) if nodes else -1
+        h = draw(st.integers(0, len(hardware) - 1)) if hardware else -1
+        if what == "number" and t >= 0:
             key = draw(st.sampled_from(["rate_hz", "rate_tolerance_hz", "window_s"]))
-            topics[k] = dataclasses.replace(topics[k], **{key: draw(st.sampled_from(_NUMBERS))})
-        elif what == "number" and nodes:
-            k = draw(st.integers(0, len(nodes) - 1))
-            limits = Limits(draw(st.sampled_from(_NUMBERS)), nodes[k].limits.mem)
-            nodes[k] = dataclasses.replace(nodes[k], limits=limits)
-        elif what == "field" and topics:
-            k = draw(st.integers(0, len(topics) - 1))
-            fields = (*topics[k].fields, Name(draw(st.sampled_from(_NAMES))))
-            topics[k] = dataclasses.replace(topics[k], fields=fields)
-        elif what == "type" and topics:
-            k = draw(st.integers(0, len(topics) - 1))
-            topics[k] = dataclasses.replace(topics[k], msg_type=draw(st.sampled_from(_NAMES)))
-        elif what == "device" and nodes:
-            k = draw(st.integers(0, len(nodes) - 1))
-            devices = (*nodes[k].diagnostics, Name(draw(st.sampled_from(_NAMES))))
-            nodes[k] = dataclasses.replace(nodes[k], diagnostics=devices)
-        elif what == "name" and hardware:
-            k = draw(st.integers(0, len(hardware) - 1))
-            hardware[k] = dataclasses.replace(hardware[k], name=Name(draw(st.sampled_from(_NAMES))))
-        elif what == "name" and nodes:
-            k = draw(st.integers(0, len(nodes) - 1))
-            long = nodes[k].name.value + "_" * MAX_NAME  # still a ROS name, too long
-            nodes[k] = dataclasses.replace(nodes[k], name=Name(long))
-        elif what == "integral" and topics:
-            k = draw(st.integers(0, len(topics) - 1))
-            t = topics[k].name.value
-            side = FieldRef(t, draw(st.sampled_from(["yaw", "a.b", "x"])), integrated=True)
-            related.append(Related(side, FieldRef(t, "other")))
-    return dataclasses.replace(
+            topics[t] = replace(topics[t], **{key: number})
+        elif what == "number" and n >= 0:
+            nodes[n] = replace(nodes[n], limits=Limits(number, nodes[n].limits.mem))
+        elif what in ("field", "clash") and t >= 0:  # a clash: two fields that mangle alike
+            more = (name,) if what == "field" else (Name("a.b"), Name("a_b"))
+            topics[t] = replace(topics[t], fields=(*topics[t].fields, *more))
+        elif what == "type" and t >= 0:
+            topics[t] = replace(topics[t], msg_type=name.value)
+        elif what == "device" and n >= 0:
+            nodes[n] = replace(nodes[n], diagnostics=(*nodes[n].diagnostics, name))
+        elif what == "name" and h >= 0:
+            hardware[h] = replace(hardware[h], name=name)
+        elif what == "long" and n >= 0:  # still a ROS name, but too long
+            nodes[n] = replace(nodes[n], name=Name(nodes[n].name.value + "_" * MAX_NAME))
+        elif what == "alias" and t >= 0:  # another spelling of a topic, as a topic or device
+            value = topics[t].name.value
+            alias = Name(value[1:] if value.startswith("/") else "/" + value)
+            if draw(st.booleans()):
+                topics.append(Topic(alias))
+            elif n >= 0:
+                nodes[n] = replace(nodes[n], diagnostics=(*nodes[n].diagnostics, alias))
+        elif what == "integral" and t >= 0:
+            topic = topics[t].name.value
+            side = FieldRef(topic, draw(st.sampled_from(["yaw", "a.b", "x"])), integrated=True)
+            related.append(Related(side, FieldRef(topic, "other")))
+    return replace(
         model, topics=tuple(topics), nodes=tuple(nodes), hardware=tuple(hardware),
         related=tuple(related),
     )  # fmt: skip
