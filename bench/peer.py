@@ -74,7 +74,7 @@ def timed(action: Callable[[], object], repeat: int) -> Timing:
         result = action()
         times.append(time.perf_counter() - start)
         del result
-    return min(times), statistics.median(times)
+    return _best_of(times)
 
 
 def process(command: list[str], repeat: int) -> tuple[Timing, int]:
