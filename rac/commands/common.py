@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import contextlib
 import errno
 import os
 import shutil
@@ -158,16 +157,10 @@ def checked_truth(
     from rac.synth.truth import check_truth
 
     found = check_truth(truth, models, robot)
-    if not found:
-        return
-    source = None
-    # without the text, the messages still name the file, line and column
-    with contextlib.suppress(OSError, UnicodeDecodeError):
-        source = Path(truth.span.file).read_text(encoding="utf-8") if truth.span else None
     if any(d.is_error for d in found):
-        raise RacError(found, source)
-    if not quiet:
-        print_warnings(tuple(found), source)
+        raise RacError(found, truth.source)
+    if found and not quiet:
+        print_warnings(tuple(found), truth.source)
 
 
 def load_and_compile(path: str, *, quiet: bool = False) -> Compiled:

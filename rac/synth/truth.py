@@ -65,6 +65,7 @@ class GroundTruth:
     duration: float  # seconds
     faults: tuple[InjectedFault, ...]  # by start, end, kind, target
     span: Span | None = field(default=None, compare=False)
+    source: str | None = field(default=None, compare=False, repr=False)  # the file's text
 
     def active(self, t: float) -> tuple[InjectedFault, ...]:
         return tuple(f for f in self.faults if f.active(t))
@@ -276,7 +277,7 @@ def parse_truth(text: str, file: str) -> GroundTruth:
     if reader.errors or robot is None or duration is None:
         raise RacError(reader.errors, text)
     found = sorted((f for f in faults if f is not None), key=_sort_key)
-    return GroundTruth(robot, duration, tuple(found), _span(file, root))
+    return GroundTruth(robot, duration, tuple(found), _span(file, root), text)
 
 
 def load_truth(path: str | Path) -> GroundTruth:
