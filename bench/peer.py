@@ -18,7 +18,8 @@ best (median) of N runs:
    against the peer converting the same literals to its variables and calling the solver;
    the index build, repeated in one process and once in a fresh one (as a command builds
    it), beside a reference (a dict keyed by as many atoms: what Python itself takes); the
-   10k/1k ratio of each;
+   10k/1k ratio of each, and each size's working set (the theory and its index, traced)
+   against the machine's last-level cache;
 3. all minimal diagnoses up to cardinality 2 in process against RC2 (in process, its
    formula built beforehand), and the size of ``--json``'s output.
 """
@@ -34,6 +35,7 @@ import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -42,6 +44,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 
 from compile import synthetic_model  # noqa: E402  (bench/compile.py)
+from machine import fits_note, last_level_cache, working_set  # noqa: E402  (bench/machine.py)
 
 from rac.diagnosis import compile_theory, diagnose, is_consistent, load_theory, predict  # noqa: E402
 from rac.diagnosis.engine import Index  # noqa: E402
@@ -192,6 +195,8 @@ def measure(size: int, repeat: int, work: Path) -> dict[str, object]:
     out["index build"] = timed(lambda: Index(theory), repeat)
     fresh = [sys.executable, __file__, "--index-build", str(model_yaml)]
     out["index build, fresh process"] = _best_of([_run_float(fresh) for _ in range(repeat)])
+    # what the build reads and writes: the theory and the index (the index keeps the theory)
+    out["working set"] = working_set(lambda: Index(load_theory(str(model_yaml))))
     keys = _atom_keys(theory)
     out["reference: a dict of as many atoms"] = timed(lambda: _dict_reference(keys), repeat)
     index = compile_theory(theory)
@@ -288,7 +293,8 @@ def main() -> int:
     for size, figures in results.items():
         print(f"-- {size} nodes")
         for name, value in figures.items():
-            print("  " + show(name, value))
+            if name != "working set":
+                print("  " + show(name, value))
         if HAVE_PYSAT:
             pairs = (
                 ("racc diagnose --obs-file --json", "peer whole process"),
@@ -316,6 +322,8 @@ def main() -> int:
         )
         for name in (*names, "diagnoses <= 2"):
             print(f"{label} {name:<30} {ratio(large[name], small[name]):6.1f}")
+    sets = {size: cast(int, figures["working set"]) for size, figures in results.items()}
+    print(f"index build: {fits_note(sets, last_level_cache())}")
     return 0
 
 
