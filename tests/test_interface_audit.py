@@ -99,3 +99,12 @@ def test_demo_without_the_ros_client_library_starts_nothing(
     monkeypatch.setattr(subprocess, "Popen", refuse)
     assert main(["demo", TEDUSAR, "--ros", ros, "-o", str(tmp_path / "demo")]) == 1
     assert f"error[{code}]" in capsys.readouterr().err
+
+
+def test_a_missing_planner_named_by_the_environment_says_which_path(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("RACC_FAST_DOWNWARD", "/nonexistent/fast-downward.py")
+    assert main(["repair", TEDUSAR, "--obs", "not ok(pose)"]) == 3
+    err = capsys.readouterr().err
+    assert "error[RAC072]" in err and "RACC_FAST_DOWNWARD=/nonexistent/fast-downward.py" in err
