@@ -21,9 +21,7 @@ def read_text(path: str | Path) -> str:
     except FileNotFoundError:
         raise RacError([Diagnostic("RAC004", f"{path}: no such file")]) from None
     except IsADirectoryError:
-        raise RacError(
-            [Diagnostic("RAC004", f"{path}: is a directory, not a model file")]
-        ) from None
+        raise RacError([Diagnostic("RAC004", f"{path}: is a directory, not a file")]) from None
     except (OSError, UnicodeDecodeError) as err:
         raise RacError([Diagnostic("RAC004", f"{path}: cannot read: {err}")]) from None
 
@@ -33,6 +31,19 @@ def load_model(path: str | Path) -> Model:
     from rac.interchange import parse_json
     from rac.parse import parse_ram
 
+    if str(path).endswith((".yaml", ".yml")):
+        # A model server file holds clauses only: without this, the .ram parser's
+        # "unexpected 'ab'; expected 'robot'" would be all the user learns.
+        raise RacError(
+            [
+                Diagnostic(
+                    "RAC060",
+                    f"{path}: a model server file (model.yaml) has only clauses, and this "
+                    "command needs the architecture: give a .ram or a ram/1 .json model",
+                    hint="diagnose, repair, scenario, simulate and analyze take a model.yaml",
+                )
+            ]
+        )
     text = read_text(path)
     if str(path).endswith(".json"):
         return parse_json(text, str(path))

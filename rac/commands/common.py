@@ -45,7 +45,12 @@ class CommandParser(argparse.ArgumentParser):
     ) -> tuple[argparse.Namespace, list[str]]:
         if args is not None and self.batched:
             args = batched_runs(list(args), self.batched)
-        return super().parse_known_args(args, namespace)
+        parsed, extra = super().parse_known_args(args, namespace)
+        if extra:
+            # Left to the top-level parser, the error would show `racc`'s usage, not the
+            # command's: the user needs to see the options of the command they typed.
+            self.error(f"unrecognized arguments: {' '.join(extra)}")
+        return parsed, extra
 
 
 def batched_runs(args: list[str], batched: Mapping[str, str]) -> list[str]:
@@ -316,7 +321,9 @@ def write_file_atomically(path: Path, content: str) -> None:
     except OSError as err:
         if tmp is not None and os.path.exists(tmp):
             os.unlink(tmp)  # nothing half-written is left behind
-        raise RacError([Diagnostic("RAC004", f"{path}: cannot write: {err}")]) from None
+        # The reason only: the error's own file name is the temp file, which the user never named.
+        why = err.strerror or str(err)
+        raise RacError([Diagnostic("RAC004", f"{path}: cannot write: {why}")]) from None
 
 
 def add_ros_option(parser: argparse.ArgumentParser) -> None:

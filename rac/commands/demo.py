@@ -135,6 +135,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"export {variable}={prefix}{os.pathsep}${variable}")
     if args.write_only:
         return 0
+    _require_client_library(ros)
     _prepend(env, variable, prefix)
     procs: list[subprocess.Popen[bytes]] = []
     try:
@@ -166,6 +167,19 @@ def run(args: argparse.Namespace) -> int:
             except subprocess.TimeoutExpired:
                 p.kill()
     return 0
+
+
+def _require_client_library(ros: int) -> None:
+    """RAC057/RAC116 before anything starts: the demo nodes run on this Python, and without
+    rospy (rclpy) every one of them would die with a traceback while the demo carried on."""
+    if ros == 2:
+        from rac.ros2.common import require_rclpy
+
+        require_rclpy()
+    else:
+        from rac.ros1.common import require_ros
+
+        require_ros()
 
 
 def _board_sim(args: argparse.Namespace) -> subprocess.Popen[bytes]:

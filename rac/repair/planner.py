@@ -86,6 +86,15 @@ def run_planner(
     """Solve ``problem`` in ``domain`` (PDDL texts); raise NoRepairPlan when there is no plan."""
     driver = driver_path()
     if driver is None:
+        override = os.environ.get("RACC_FAST_DOWNWARD")
+        if override:  # installing the wheel would not help: the variable wins
+            raise NoRepairPlan(
+                "RAC072",
+                f"the planner Fast Downward was not found: RACC_FAST_DOWNWARD={override} "
+                "is no file",
+                hint="point RACC_FAST_DOWNWARD at a fast-downward.py, or unset it and use "
+                "the wheel: pip install up-fast-downward",
+            )
         raise NoRepairPlan(
             "RAC072",
             "the planner Fast Downward was not found",

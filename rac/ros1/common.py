@@ -42,7 +42,8 @@ def master_uri() -> str:
 
 
 def check_master() -> None:
-    """RAC058 when no master answers at ROS_MASTER_URI."""
+    """RAC058 when no master answers at ROS_MASTER_URI (RAC057 without ROS 1 at all)."""
+    require_ros()  # rosgraph comes with rospy: without them this is RAC057, not a crash
     import rosgraph
 
     if not rosgraph.is_master_online(master_uri()):
