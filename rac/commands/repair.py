@@ -46,7 +46,7 @@ def seconds(text: str) -> float:
     return value
 
 
-def add_planner_options(parser: argparse.ArgumentParser) -> None:
+def add_planner_options(parser: argparse.ArgumentParser, command: str = "repair") -> None:
     parser.add_argument(
         "--planner-timeout",
         metavar="S",
@@ -60,7 +60,7 @@ def add_planner_options(parser: argparse.ArgumentParser) -> None:
         help="check the plan with unified-planning's plan validator (optional extra)",
     )
     parser.add_argument(
-        "--json", action="store_true", help="print JSON (docs/spec.md#racc-repair---json)"
+        "--json", action="store_true", help=f"print JSON (docs/spec.md#racc-{command}---json)"
     )
 
 
