@@ -48,7 +48,7 @@ def register(sub: Any) -> None:
         help="device-shutdown: the switchable device that goes off (default: the first one "
         "declared)",
     )
-    add_planner_options(parser, "scenario")
+    add_planner_options(parser, "print JSON (docs/spec.md#racc-scenario---json)")
     add_scenario_options(parser)  # --board --board-control --node-commands (issue 6)
     parser.set_defaults(run=run)
 
