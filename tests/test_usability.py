@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -143,3 +144,30 @@ def test_help_descriptions_are_wrapped() -> None:
                     assert len(line) <= 100, (name, line)
     finally:
         del os.environ["COLUMNS"]
+
+
+def test_every_option_is_explained_with_its_default() -> None:
+    """Each option of each command (subcommands too) has help, and a default is stated."""
+    import argparse
+
+    from rac.cli import build_parser
+
+    def parsers(
+        parser: argparse.ArgumentParser, name: str
+    ) -> Iterator[tuple[str, argparse.ArgumentParser]]:
+        yield name, parser
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for sub_name, sub in action.choices.items():
+                    yield from parsers(sub, f"{name} {sub_name}".strip())
+
+    silent = (argparse._HelpAction, argparse._VersionAction, argparse._SubParsersAction)
+    for name, parser in parsers(build_parser(), ""):
+        for action in parser._actions:
+            if isinstance(action, silent) or action.help == argparse.SUPPRESS:
+                continue
+            where = (name, action.option_strings or action.dest)
+            assert action.help, where
+            stated = isinstance(action, (argparse._StoreTrueAction, argparse._StoreFalseAction))
+            if action.option_strings and action.default not in (None, False, [], ()):
+                assert stated or "default" in action.help, where

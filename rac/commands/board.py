@@ -83,7 +83,12 @@ def register(sub: Any) -> None:
             type=address_arg,
             help="the board's address",
         )
-        p.add_argument("--model", metavar="MODEL", help="names the channels (.ram or .json)")
+        p.add_argument(
+            "--model",
+            metavar="MODEL",
+            help="the robot (.ram or .json), which names the channels (default: channel numbers "
+            "only)",
+        )
         p.add_argument(
             "--timeout", type=float, default=2.0, help="seconds per wait (default: %(default)s)"
         )
@@ -92,9 +97,19 @@ def register(sub: Any) -> None:
     switch.add_argument("device", metavar="DEVICE", help="device name or channel number")
     switch.add_argument("state", choices=("on", "off"), help="the state to switch to")
     control.add_argument(
-        "--control", required=True, metavar="HOST:PORT", type=address_arg, help="control port"
+        "--control",
+        required=True,
+        metavar="HOST:PORT",
+        type=address_arg,
+        help="board-sim's control port",
     )
-    control.add_argument("line", nargs="+", metavar="LINE", help="the control command")
+    control.add_argument(
+        "line",
+        nargs="+",
+        metavar="LINE",
+        help="the control line: trip, overcurrent, disconnect, jam, clear, on or off and a device"
+        " or channel; status; help",
+    )
     control.set_defaults(run=run)
     parser.set_defaults(run=run)
 
@@ -208,7 +223,10 @@ def add_execute_options(parser: argparse.ArgumentParser) -> None:
 
 def add_board_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
-        "--board", metavar="HOST:PORT", type=address_arg, help="the diagnostic board (or board-sim)"
+        "--board",
+        metavar="HOST:PORT",
+        type=address_arg,
+        help="the diagnostic board (or board-sim), needed by --execute",
     )
     parser.add_argument(
         "--node-commands",

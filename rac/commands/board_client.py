@@ -26,9 +26,18 @@ def register(sub: Any) -> None:
     )
     parser.add_argument("observers", metavar="OBSERVERS", help="observers.yaml")
     parser.add_argument(
-        "--board", metavar="HOST:PORT", required=True, type=_address, help="the board"
+        "--board",
+        metavar="HOST:PORT",
+        required=True,
+        type=_address,
+        help="the diagnostic board (or board-sim)",
     )
-    parser.add_argument("--hz", type=int, default=10, help="measurements per second (10)")
+    parser.add_argument(
+        "--hz",
+        type=int,
+        default=10,
+        help="measurements per second the board is asked for (default: 10)",
+    )
     add_ros_option(parser)
     parser.set_defaults(run=run)
 

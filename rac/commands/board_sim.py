@@ -51,7 +51,9 @@ def register(sub: Any) -> None:
         default=0,
         help="control port (default: any free one)",
     )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the measurement jitter")
+    parser.add_argument(
+        "--seed", type=int, default=0, help="seed of the measurement jitter (default: 0)"
+    )
     parser.add_argument("-q", "--quiet", action="store_true", help="do not log client events")
     parser.set_defaults(run=run)
 

@@ -46,7 +46,13 @@ def register(sub: Any) -> None:
         "  racc demo models/tedusar.ram --ros 2 -o /tmp/demo2 --fault crash@30:jaguar_node",
     )
     parser.add_argument("model", metavar="MODEL", help="the robot (.ram or ram/1 .json)")
-    parser.add_argument("-o", "--output", metavar="DIR", default="demo", help="(default: demo)")
+    parser.add_argument(
+        "-o",
+        "--output",
+        metavar="DIR",
+        default="demo",
+        help="where the robot's launch file and the racc ROS package go (default: demo)",
+    )
     parser.add_argument(
         "--fault",
         action="append",
@@ -54,15 +60,23 @@ def register(sub: Any) -> None:
         metavar="KIND@T[+D]:TARGET",
         help="inject a fault: KIND at T s for D s (default: to the end) into TARGET",
     )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the signals (0)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the signals (default: 0)")
     parser.add_argument(
         "--duration", metavar="S", type=float, help="seconds to run (default: until Ctrl-C)"
     )
     parser.add_argument(
-        "--board-port", metavar="PORT", type=int, default=7000, help="board-sim port (7000)"
+        "--board-port",
+        metavar="PORT",
+        type=int,
+        default=7000,
+        help="board-sim port (default: 7000)",
     )
     parser.add_argument(
-        "--control-port", metavar="PORT", type=int, default=7001, help="its control port"
+        "--control-port",
+        metavar="PORT",
+        type=int,
+        default=7001,
+        help="board-sim's control port (default: 7001)",
     )
     parser.add_argument("--write-only", action="store_true", help="write the files, run nothing")
     add_ros_option(parser)

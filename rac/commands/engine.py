@@ -27,8 +27,13 @@ def register(sub: Any) -> None:
         "  ros2 topic pub -1 /racc_engine/reload std_msgs/msg/String \"{data: ''}\"",
     )
     parser.add_argument("model", metavar="MODEL", help="model.yaml (or .ram/.json)")
-    parser.add_argument("--rate", type=float, default=1.0, help="diagnoses per second (1)")
-    parser.add_argument("--max-card", type=int, help="largest diagnosis searched (default: all)")
+    parser.add_argument("--rate", type=float, default=1.0, help="diagnoses per second (default: 1)")
+    parser.add_argument(
+        "--max-card",
+        metavar="K",
+        type=int,
+        help="search diagnoses of at most K faulty components (default: no bound)",
+    )
     add_ros_option(parser)
     parser.set_defaults(run=run)
 

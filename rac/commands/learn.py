@@ -95,10 +95,14 @@ def register(sub: Any) -> None:
         "training runs themselves (default: drop them, with a comment)",
     )
     parser.add_argument(
-        "--properties", metavar="CSV", help="node samples: time,node,cpu,mem (cpu %%, mem bytes)"
+        "--properties",
+        metavar="CSV",
+        help="node samples, a CSV with the header time,node,cpu,mem (cpu %%, mem bytes); without "
+        "it no limits are learned (a base model's are kept)",
     )
     parser.add_argument(
         "--sigmas",
+        metavar="K",
         type=float,
         default=DEFAULT_SIGMAS,
         help="a limit is mean + K·σ of the samples, at least their max (default: %(default)s)",
@@ -111,7 +115,10 @@ def register(sub: Any) -> None:
         help="also use fields matching these glob patterns (arrays, header fields, fields "
         "the base model does not list): 'ranges', 'header.*', '/scan.ranges'",
     )
-    parser.add_argument("--name", help="the robot's name when there is no base model")
+    parser.add_argument(
+        "--name",
+        help="the robot's name when there is no base model (default: the first RUN's stem)",
+    )
     parser.add_argument("--report", metavar="FILE", help="write counts and evidence as JSON")
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     parser.set_defaults(run=run)

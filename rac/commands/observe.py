@@ -28,7 +28,10 @@ def register(sub: Any) -> None:
     )
     parser.add_argument("observers", metavar="OBSERVERS", help="observers.yaml")
     parser.add_argument(
-        "--rate", type=float, default=10.0, help="node and property samples per second (10)"
+        "--rate",
+        type=float,
+        default=10.0,
+        help="node and property samples per second (default: 10)",
     )
     add_ros_option(parser)
     parser.set_defaults(run=run)

@@ -40,17 +40,34 @@ def register(sub: Any) -> None:
         "  racc place robot.ram --candidates learned.ram --costs costs.yaml --mode crash",
     )
     parser.add_argument("model", metavar="MODEL", help="a .ram or a ram/1 .json")
-    parser.add_argument("--mode", choices=MODES, default="output", help="fault mode (output)")
     parser.add_argument(
-        "--budget", metavar="N", type=_budget, help="spend at most N (cost units; 1 per observer)"
+        "--mode",
+        choices=MODES,
+        default="output",
+        help="the fault mode to make isolable (default: output)",
     )
     parser.add_argument(
-        "--candidates", metavar="LEARNED", help="a learned .ram (racc learn) for more candidates"
+        "--budget",
+        metavar="N",
+        type=_budget,
+        help="spend at most N cost units, 1 per observer unless --costs says otherwise (default: "
+        "no budget)",
     )
     parser.add_argument(
-        "--costs", metavar="COSTS", help="YAML: cost per observer kind, 'KIND key' or key"
+        "--candidates",
+        metavar="LEARNED",
+        help="a learned .ram (racc learn): its rates, limits and relations become candidates "
+        "(default: placeholder values)",
     )
-    parser.add_argument("-o", "--output", metavar="FILE", help="write the patch here")
+    parser.add_argument(
+        "--costs",
+        metavar="COSTS",
+        help="YAML map from an observer kind (GObs: 1), a candidate ('GObs /map': 5) or what it "
+        "watches (/map: 5) to its cost (default: 1 each)",
+    )
+    parser.add_argument(
+        "-o", "--output", metavar="FILE", help="write the .ram patch to FILE (default: stdout)"
+    )
     parser.add_argument("--json", action="store_true", help="print the placement as JSON")
     parser.set_defaults(run=run)
 

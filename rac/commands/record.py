@@ -25,11 +25,23 @@ def register(sub: Any) -> None:
         "  racc record --ros 2 -o run2 --duration 60",
     )
     parser.add_argument(
-        "-o", "--output", metavar="RUN", required=True, help="the bag (ROS 2: a directory)"
+        "-o",
+        "--output",
+        metavar="RUN",
+        required=True,
+        help="the recording: a .bag file (ROS 2: a bag directory)",
     )
-    parser.add_argument("--duration", type=float, required=True, metavar="S", help="seconds")
-    parser.add_argument("--properties", metavar="CSV", help="(default: RUN.properties.csv)")
-    parser.add_argument("--graph", metavar="YAML", help="(default: RUN.graph.yaml)")
+    parser.add_argument(
+        "--duration", type=float, required=True, metavar="S", help="how long to record, in seconds"
+    )
+    parser.add_argument(
+        "--properties",
+        metavar="CSV",
+        help="where the cpu and memory samples go (default: RUN.properties.csv)",
+    )
+    parser.add_argument(
+        "--graph", metavar="YAML", help="where the computation graph goes (default: RUN.graph.yaml)"
+    )
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing")
     add_ros_option(parser)
     parser.set_defaults(run=run)

@@ -46,7 +46,9 @@ def seconds(text: str) -> float:
     return value
 
 
-def add_planner_options(parser: argparse.ArgumentParser) -> None:
+def add_planner_options(
+    parser: argparse.ArgumentParser, json_help: str = "print JSON (docs/spec.md#racc-repair---json)"
+) -> None:
     parser.add_argument(
         "--planner-timeout",
         metavar="S",
@@ -59,9 +61,7 @@ def add_planner_options(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="check the plan with unified-planning's plan validator (optional extra)",
     )
-    parser.add_argument(
-        "--json", action="store_true", help="print JSON (docs/spec.md#racc-repair---json)"
-    )
+    parser.add_argument("--json", action="store_true", help=json_help)
 
 
 VALIDATED = "plan validated by unified-planning's plan validator"

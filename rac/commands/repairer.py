@@ -48,12 +48,25 @@ def register(sub: Any) -> None:
     parser.add_argument(
         "--observers", metavar="FILE", help="observers.yaml (default: beside MODEL)"
     )
-    parser.add_argument("--step-timeout", type=float, default=5.0, help="seconds per step (5)")
     parser.add_argument(
-        "--verify-timeout", type=float, default=10.0, help="seconds for 'no fault' after a plan"
+        "--step-timeout",
+        metavar="S",
+        type=float,
+        default=5.0,
+        help="seconds a step may take to show its effect, then it is tried once more (default: 5)",
     )
     parser.add_argument(
-        "--strategy", default="minimal", help="which diagnosis to repair (as racc repair)"
+        "--verify-timeout",
+        metavar="S",
+        type=float,
+        default=10.0,
+        help="seconds the engine has to report no fault after a plan (default: 10)",
+    )
+    parser.add_argument(
+        "--strategy",
+        choices=("minimal", "first"),
+        default="minimal",
+        help="which diagnosis to repair, as in racc repair (default: minimal)",
     )
     add_ros_option(parser)
     parser.set_defaults(run=run)

@@ -28,8 +28,16 @@ def register(sub: Any) -> None:
         "  racc ros-package --ros 2 -o ~/racc_ws/install\n"
         "  export AMENT_PREFIX_PATH=~/racc_ws/install:$AMENT_PREFIX_PATH",
     )
-    parser.add_argument("-o", "--output", metavar="DIR", required=True, help="where to write")
-    parser.add_argument("--python", metavar="EXE", help="interpreter (default: this one)")
+    parser.add_argument(
+        "-o",
+        "--output",
+        metavar="DIR",
+        required=True,
+        help="ROS 1: the directory that gets racc/; ROS 2: the install prefix",
+    )
+    parser.add_argument(
+        "--python", metavar="EXE", help="the Python that runs the executables (default: this one)"
+    )
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing")
     add_ros_option(parser)
     parser.set_defaults(run=run)

@@ -42,8 +42,13 @@ def register(sub: Any) -> None:
     parser.add_argument(
         "scenario", metavar="SCENARIO", choices=SCENARIOS, help=" or ".join(SCENARIOS)
     )
-    parser.add_argument("--device", metavar="D", help="device-shutdown: the device that goes off")
-    add_planner_options(parser)
+    parser.add_argument(
+        "--device",
+        metavar="D",
+        help="device-shutdown: the switchable device that goes off (default: the first one "
+        "declared)",
+    )
+    add_planner_options(parser, "print JSON (docs/spec.md#racc-scenario---json)")
     add_scenario_options(parser)  # --board --board-control --node-commands (issue 6)
     parser.set_defaults(run=run)
 

@@ -40,7 +40,11 @@ def register(sub: Any) -> None:
         "--all-single-faults", action="store_true", help="inject each component's fault in turn"
     )
     parser.add_argument(
-        "--max-card", metavar="K", type=card, default=None, help="bound the diagnosis search"
+        "--max-card",
+        metavar="K",
+        type=card,
+        default=None,
+        help="search diagnoses of at most K faulty components (default: no bound)",
     )
     parser.add_argument(
         "--mode",
@@ -48,7 +52,9 @@ def register(sub: Any) -> None:
         default="crash",
         help="how the injected components fail (default: crash)",
     )
-    parser.add_argument("--json", action="store_true", help="print JSON")
+    parser.add_argument(
+        "--json", action="store_true", help="print JSON (docs/spec.md#racc-simulate---json)"
+    )
     add_with_good_option(parser)
     parser.set_defaults(run=run)
 

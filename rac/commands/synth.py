@@ -66,15 +66,33 @@ def register(sub: Any) -> None:
         "  racc synth models/pioneer.ram -o test.bag --duration 600 --schedule thesis",
     )
     parser.add_argument("model", metavar="MODEL", help="a .ram file or a ram/1 .json")
-    parser.add_argument("-o", "--output", metavar="RUN", required=True, help="the recording")
+    parser.add_argument(
+        "-o",
+        "--output",
+        metavar="RUN",
+        required=True,
+        help="the recording: RUN.bag is a ROS 1 bag, any other name a ROS 2 bag directory",
+    )
     version = parser.add_mutually_exclusive_group()
-    version.add_argument("--ros1", action="store_true", help="a ROS 1 .bag file")
-    version.add_argument("--ros2", action="store_true", help="a ROS 2 bag directory")
+    version.add_argument(
+        "--ros1",
+        action="store_true",
+        help="write a ROS 1 .bag file (default: when RUN ends in .bag)",
+    )
+    version.add_argument(
+        "--ros2",
+        action="store_true",
+        help="write a ROS 2 bag directory (default: when RUN does not end in .bag)",
+    )
     parser.add_argument(
         "--storage", choices=("sqlite3", "mcap"), help="ROS 2 storage (default: sqlite3)"
     )
     parser.add_argument(
-        "--duration", metavar="S", type=float, default=120.0, help="seconds (default: 120)"
+        "--duration",
+        metavar="S",
+        type=float,
+        default=120.0,
+        help="length of the recording in seconds (default: 120)",
     )
     parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     parser.add_argument(
@@ -83,14 +101,19 @@ def register(sub: Any) -> None:
         action="append",
         default=[],
         type=fault_arg,
-        help="inject a fault",
+        help="inject a fault of KIND (slip, crash, freq, cpu, mem) at T s for D s (default: to "
+        "the end) into the node or topic TARGET (repeatable)",
     )
     parser.add_argument(
         "--schedule",
         choices=SCHEDULES,
         help="inject a fixed series of faults: thesis is §10.2.2's test run (six faults: 240 s)",
     )
-    parser.add_argument("--force", action="store_true", help="replace RUN if it exists")
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="replace RUN and the files beside it (without it an existing output is an error)",
+    )
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     parser.set_defaults(run=run)
 
