@@ -164,7 +164,7 @@ CODES: dict[str, str] = {
     "RAC059": "cannot load the robot's launch file",
     # Repair (chapter 7, issue 4): the repair commands exit 3 on RAC070-RAC075, RAC077, RAC078.
     # Analysis, placement and import (issue 12).
-    "RAC060": "a fault mode or command needs a .ram or .json model",
+    "RAC060": "a fault mode or command needs a .ram or .json model (racc fmt: a .ram)",
     "RAC061": "a component cannot fail in the given fault mode",
     "RAC062": "invalid costs file",
     "RAC063": "the LP relaxation failed",

@@ -317,7 +317,8 @@ def test_export_json_and_ram(
     assert run(capsys, "export", "--json", str(ram_path))[1] == out
 
     written = tmp_path / "w.json"
-    assert run(capsys, "export", "--json", str(model), "-o", str(written)) == (0, "", "")
+    wrote = f"wrote {written}\n"  # on stderr: stdout stays empty
+    assert run(capsys, "export", "--json", str(model), "-o", str(written)) == (0, "", wrote)
     assert written.read_text() == out
 
 

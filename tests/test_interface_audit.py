@@ -108,3 +108,41 @@ def test_a_missing_planner_named_by_the_environment_says_which_path(
     assert main(["repair", TEDUSAR, "--obs", "not ok(pose)"]) == 3
     err = capsys.readouterr().err
     assert "error[RAC072]" in err and "RACC_FAST_DOWNWARD=/nonexistent/fast-downward.py" in err
+
+
+@pytest.mark.parametrize("command", ["diagnose", "simulate"])
+def test_with_good_without_json_is_a_command_line_error(
+    command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = [command, TEDUSAR, "--with-good"]
+    argv += ["--obs", "not ok(pose)"] if command == "diagnose" else ["--fault", "imu_node"]
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    assert stop.value.code == 2
+    assert f"racc {command}: error: --with-good goes with --json" in capsys.readouterr().err
+
+
+def test_fmt_refuses_a_json_or_model_yaml_before_rewriting_anything(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    ram = tmp_path / "robot.ram"
+    ram.write_text(Path(TEDUSAR).read_text(encoding="utf-8") + "\n\n\n", encoding="utf-8")
+    before = ram.read_text(encoding="utf-8")
+    other = tmp_path / "robot.json"
+    other.write_text("{}", encoding="utf-8")
+    assert main(["fmt", str(ram), str(other), FULL_ADDER]) == 1
+    err = capsys.readouterr().err
+    assert f"error[RAC060]: {other}: racc fmt formats .ram files only" in err
+    assert f"error[RAC060]: {FULL_ADDER}: racc fmt formats .ram files only" in err
+    assert ram.read_text(encoding="utf-8") == before  # nothing rewritten: all or nothing
+
+
+def test_export_to_a_file_says_what_it_wrote(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "tedusar.json"
+    assert main(["export", TEDUSAR, "--json", "-o", str(out)]) == 0
+    assert f"wrote {out}" in capsys.readouterr().err
+    assert out.read_text(encoding="utf-8").startswith("{")
+    assert main(["export", TEDUSAR, "--json", "-o", str(out), "-q"]) == 0
+    assert capsys.readouterr().err == ""

@@ -208,7 +208,19 @@ def run(args: argparse.Namespace) -> int:
         return _diagnose(args)
 
 
+def require_json_for_good(args: argparse.Namespace, command: str) -> None:
+    """``--with-good`` shapes the JSON only: alone it would be silently ignored."""
+    if args.with_good and not args.json:
+        print(
+            f"racc {command}: error: --with-good goes with --json "
+            "(the table lists each diagnosis's bad components only)",
+            file=sys.stderr,
+        )
+        raise SystemExit(2)
+
+
 def _diagnose(args: argparse.Namespace) -> int:
+    require_json_for_good(args, "diagnose")
     theory = load_theory(args.model)
     theta = observed_ids(args, theory)
     result = diagnose_ids(theory, theta, args.max_card)

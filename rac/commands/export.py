@@ -34,6 +34,7 @@ def run(args: argparse.Namespace) -> int:
     text = dumps(model) if args.json else format_model(model)
     if args.output:
         write_file_atomically(Path(args.output), text)
+        print(f"wrote {args.output}", file=sys.stderr)
     else:
         sys.stdout.write(text)
     return 0

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from rac.commands.common import add_command, write_file_atomically
+from rac.errors import Diagnostic, RacError
 from rac.fmt import format_model
 from rac.loader import read_text
 from rac.parse import parse_ram
@@ -32,7 +33,23 @@ def register(sub: Any) -> None:
     parser.set_defaults(run=run)
 
 
+def _require_ram(names: list[str]) -> None:
+    """RAC060 before anything is rewritten: the formatter reads and writes the .ram
+    language, and a .json or model.yaml would otherwise be a syntax error at its first
+    character (or, formatted, lose its own format)."""
+    wrong = [n for n in names if n.endswith((".json", ".yaml", ".yml"))]
+    if wrong:
+        hint = "racc export MODEL.json -o MODEL.ram writes a ram/1 model as .ram text"
+        raise RacError(
+            [
+                Diagnostic("RAC060", f"{n}: racc fmt formats .ram files only", hint=hint)
+                for n in wrong
+            ]
+        )
+
+
 def run(args: argparse.Namespace) -> int:
+    _require_ram(args.files)
     unformatted = 0
     for name in args.files:
         text = read_text(name)

@@ -8,7 +8,7 @@ from typing import Any
 
 from rac.analysis.modes import MODES
 from rac.commands.common import add_command
-from rac.commands.diagnose import add_with_good_option, card, to_json
+from rac.commands.diagnose import add_with_good_option, card, require_json_for_good, to_json
 from rac.diagnosis import Simulation, all_single_faults, ambiguity_groups, load_theory, simulate
 
 
@@ -123,6 +123,7 @@ def table_report(
 
 
 def run(args: argparse.Namespace) -> int:
+    require_json_for_good(args, "simulate")
     theory = load_theory(args.model)
     if args.all_single_faults:
         sims = all_single_faults(theory, args.max_card, args.mode)
