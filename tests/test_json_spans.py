@@ -1,0 +1,169 @@
+"""Every structure error of a ``ram/1`` document is located: the span covers the bad value,
+the unknown key, or the object that lacks a key (RAC005, and RAC007 for numbers)."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from rac.errors import Diagnostic, RacError, Span
+from rac.interchange import _Locator, _where, dumps, model_to_json, parse_json
+from rac.loader import load_model
+
+TEDUSAR = Path(__file__).resolve().parent.parent / "models" / "tedusar.ram"
+
+
+def _doc() -> dict[str, Any]:
+    return model_to_json(load_model(TEDUSAR))
+
+
+def _offset(lines: list[str], line: int, column: int) -> int:
+    return sum(len(x) + 1 for x in lines[: line - 1]) + column - 1
+
+
+def spanned(text: str, span: Span) -> str:
+    """The source text a span covers (``text`` has ``\\n`` line ends)."""
+    lines = text.split("\n")
+    return text[
+        _offset(lines, span.line, span.column) : _offset(lines, span.end_line, span.end_column)
+    ]
+
+
+def errors_of(text: str) -> tuple[Diagnostic, ...]:
+    with pytest.raises(RacError) as info:
+        parse_json(text, "t.json")
+    for diag in info.value.diagnostics:
+        assert diag.span is not None and diag.span.file == "t.json", diag
+        assert not diag.message.startswith("t.json"), "the span names the file now"
+    return info.value.diagnostics
+
+
+# (change to the document, what the span covers, words of the message)
+CHANGES: list[tuple[Callable[[dict[str, Any]], Any], str, str]] = [
+    (lambda d: d["hardware"][0].update(switchable="yes"), '"yes"', "true or false"),
+    (lambda d: d["topics"][1].update(rate_hz="fast"), '"fast"', "topics[1].rate_hz"),
+    (lambda d: d["nodes"][2].update(subscribes="/cmd_vel"), '"/cmd_vel"', "a list"),
+    (lambda d: d["nodes"][0]["drives"].append(7), "7", "drives[1]: expected a name"),
+    (lambda d: d["nodes"][1]["limits"].update(cpu=[]), "[]", "limits.cpu"),
+    (lambda d: d["related"][0].__setitem__(1, "nodot"), '"nodot"', "related[0][1]"),
+    (lambda d: d["intervals"].append({"a": "/x.y", "b": 1, "max_diff": 0}), "1", "intervals"),
+    (lambda d: d["topics"].append("/t"), '"/t"', "expected an object for topic"),
+    (lambda d: d["topics"][0].update(rate_hz=1e300), "1e+300", "out of range"),
+    (lambda d: d.update(format="ram/2"), '"ram/2"', "ram/1"),
+]
+
+
+@pytest.mark.parametrize(("change", "covered", "words"), CHANGES)
+def test_a_bad_value_is_spanned(
+    change: Callable[[dict[str, Any]], Any], covered: str, words: str
+) -> None:
+    doc = _doc()
+    change(doc)
+    text = json.dumps(doc, indent=2)
+    (diag,) = errors_of(text)
+    assert words in diag.message
+    assert spanned(text, diag.span) == covered  # type: ignore[arg-type]
+
+
+def test_an_unknown_key_is_spanned_with_a_hint() -> None:
+    doc = _doc()
+    doc["nodes"][6]["publishes"][1]["afected_by"] = []
+    text = json.dumps(doc, indent=2)
+    (diag,) = errors_of(text)
+    assert diag.message == "nodes[6].publishes[1]: unknown key 'afected_by'"
+    assert spanned(text, diag.span) == '"afected_by"'  # type: ignore[arg-type]
+    assert diag.hint == "did you mean 'affected_by'?"
+
+
+def test_a_missing_key_spans_the_object() -> None:
+    doc = _doc()
+    del doc["nodes"][3]["publishes"][0]["topic"]
+    text = json.dumps(doc)  # one line: the span is exactly the object
+    (diag,) = errors_of(text)
+    assert diag.message == "nodes[3].publishes[0]: missing key 'topic'"
+    assert spanned(text, diag.span) == json.dumps(doc["nodes"][3]["publishes"][0])  # type: ignore[arg-type]
+
+
+def test_errors_come_in_file_order() -> None:
+    doc = _doc()
+    doc["zzz"] = 1  # the document's own keys are checked first, but this one is written last
+    doc["nodes"][-1]["bogus"] = 2
+    doc["topics"][0]["rate_hz"] = "x"
+    doc["hardware"][-1]["name"] = 3
+    diags = errors_of(json.dumps(doc, indent=1))
+    assert [d.message.split(":")[0] for d in diags] == [
+        f"hardware[{len(doc['hardware']) - 1}].name",
+        "topics[0].rate_hz",
+        f"nodes[{len(doc['nodes']) - 1}]",
+        "document",
+    ]
+    places = [(d.span.line, d.span.column) for d in diags]  # type: ignore[union-attr]
+    assert places == sorted(places)
+
+
+def test_a_duplicated_key_points_at_the_value_the_decoder_kept() -> None:
+    text = '{"format": "ram/1", "name": "r",\n "nodes": [{"name": "n", "name": 5}]}'
+    (diag,) = errors_of(text)
+    assert diag.message == "nodes[0].name: expected a string"
+    assert (diag.span.line, diag.span.column) == (2, 34)  # type: ignore[union-attr]
+
+
+def test_columns_count_characters() -> None:
+    text = '{"format": "ram/1", "name": "r", "topics": [{"name": "/é→", "rate_hz": "x"}]}'
+    (diag,) = errors_of(text)
+    assert spanned(text, diag.span) == '"x"'  # type: ignore[arg-type]
+
+
+def test_crlf_and_tabs() -> None:
+    text = '{\r\n\t"format": "ram/1",\r\n\t"name": 1\r\n}\r\n'
+    (diag,) = errors_of(text)
+    assert (diag.span.line, diag.span.column, diag.span.end_column) == (3, 10, 11)  # type: ignore[union-attr]
+    assert "   3 | " in RacError([diag], text).render()
+
+
+def test_a_valid_document_is_read_as_before() -> None:
+    model = load_model(TEDUSAR)
+    assert parse_json(dumps(model), "t.json") == model
+
+
+def _paths(value: Any, path: tuple[str | int, ...] = ()) -> list[tuple[str | int, ...]]:
+    found = [path]
+    if isinstance(value, dict):
+        for key, item in value.items():
+            found += _paths(item, (*path, key))
+    elif isinstance(value, list):
+        for index, item in enumerate(value):
+            found += _paths(item, (*path, index))
+    return found
+
+
+JSON = st.recursive(
+    st.none() | st.booleans() | st.integers() | st.floats(allow_nan=False) | st.text(max_size=4),
+    lambda inner: (
+        st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=3), inner, max_size=3)
+    ),
+    max_leaves=12,
+)
+
+
+@settings(max_examples=150, deadline=None)
+@given(JSON, st.sampled_from([None, 0, 1, 2]))
+def test_the_locator_finds_every_value(doc: Any, indent: int | None) -> None:
+    """Each path's span decodes back to the value at that path, whatever the layout."""
+    text = json.dumps(doc, indent=indent, ensure_ascii=False)
+    paths = _paths(doc)
+    spans = _Locator(text, set(paths)).spans
+    for path in paths:
+        start, end, key_start, key_end = spans[path]
+        value: Any = doc
+        for step in path:
+            value = value[step]
+        assert json.loads(text[start:end]) == value, _where(path)
+        if path and isinstance(path[-1], str):
+            assert json.loads(text[key_start:key_end]) == path[-1]
