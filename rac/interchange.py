@@ -390,7 +390,7 @@ class _Locator:
         self.above = {p[:n] for p in wanted for n in range(len(p))}
         self.skip = json.JSONDecoder(parse_int=lambda _: 0).raw_decode
         self.spans: dict[JsonPath, tuple[int, int, int, int]] = {}
-        self.value(_SPACE.match(text, 0).end(), (), -1, -1)  # type: ignore[union-attr]
+        self.value(self.space(0), (), -1, -1)
 
     def space(self, at: int) -> int:
         return _SPACE.match(self.text, at).end()  # type: ignore[union-attr]
