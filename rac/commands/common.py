@@ -195,6 +195,12 @@ def write_files_atomically(
     if directory.exists() and not directory.is_dir():
         message = f"{directory}: exists and is not a directory; choose another output directory"
         raise RacError([Diagnostic("RAC004", message)])
+    if _holds_cwd(directory):
+        # The swap would move the working directory aside and delete it: the shell that ran
+        # racc would be left in a removed directory (and `-o /` would copy the disk).
+        message = f"{directory}: is the current directory or holds it, and racc replaces DIR"
+        hint = "write into a directory of its own, e.g. '-o build'"
+        raise RacError([Diagnostic("RAC004", message, hint=hint)])
     ours = set(files) | set(owned)
     staged: str | None = None
     try:
@@ -226,6 +232,15 @@ def write_files_atomically(
     finally:
         if staged is not None:
             shutil.rmtree(staged, ignore_errors=True)  # nothing half-written is left behind
+
+
+def _holds_cwd(directory: Path) -> bool:
+    """True when ``directory`` (resolved) is the working directory or one of its parents."""
+    try:
+        cwd = Path.cwd().resolve()
+    except OSError:  # the working directory was removed: nothing to protect
+        return False
+    return cwd == directory or directory in cwd.parents
 
 
 # FS_IOC_GETFLAGS and the immutable and append-only flags of Linux (linux/fs.h): such an

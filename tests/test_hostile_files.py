@@ -1,0 +1,106 @@
+"""Messy real-world files: a byte-order mark, an oversized input, YAML beyond the limits in
+every file racc reads with PyYAML, and an output directory that holds the working directory.
+Each ends in a coded error (exit 1), never in a traceback, a MemoryError or a lost directory."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from rac import loader
+from rac.cli import main
+from rac.errors import RacError
+
+ROOT = Path(__file__).resolve().parent.parent
+TEDUSAR = ROOT / "models" / "tedusar.ram"
+
+# More nesting than the 64 levels the limits allow, and a "billion laughs" file: nine
+# aliases of nine aliases... (9**8 strings once expanded; the file itself is tiny).
+TOO_DEEP = "[" * 100 + "]" * 100 + "\n"
+LAUGHS = 'a: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]\n' + "".join(
+    f"{c}: &{c} [{', '.join([f'*{p}'] * 9)}]\n" for p, c in zip("abcdefg", "bcdefgh", strict=True)
+)
+
+
+def _codes(err: str) -> set[str]:
+    return {line.split("error[")[1][:6] for line in err.splitlines() if "error[" in line}
+
+
+def test_byte_order_mark_is_ignored(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    model = tmp_path / "bom.ram"
+    model.write_bytes(b"\xef\xbb\xbf" + TEDUSAR.read_bytes().replace(b"\n", b"\r\n"))
+    obs = tmp_path / "obs.txt"
+    obs.write_bytes(b"\xef\xbb\xbfnot ok(pose)\r\n")
+    assert main(["check", str(model)]) == 0
+    assert main(["diagnose", str(model), "--obs-file", str(obs), "-q"]) == 0
+    assert "fault detected" in capsys.readouterr().out
+
+
+def test_observations_not_utf8_are_located(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    obs = tmp_path / "obs.txt"
+    obs.write_bytes(b"ok(pose)\nnot ok(sc\xe4n)\n")
+    assert main(["diagnose", str(TEDUSAR), "--obs-file", str(obs)]) == 1
+    err = capsys.readouterr().err
+    assert f"{obs}:2:10: error[RAC004]: not UTF-8 text: byte 0xe4" in err
+
+
+def test_an_oversized_input_is_refused_unread(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # /dev/zero never ends: racc used to read it until the memory ran out.
+    monkeypatch.setattr(loader, "MAX_INPUT_BYTES", 1 << 20)
+    assert main(["check", "/dev/zero"]) == 1
+    assert "error[RAC009]: /dev/zero: larger than 1 MiB" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("text", [TOO_DEEP, LAUGHS], ids=["too_deep", "aliases"])
+def test_yaml_files_read_within_the_limits(
+    text: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Faults files, observers.yaml, tug configurations and placement costs: RAC009, located."""
+    path = tmp_path / "hostile.yaml"
+    path.write_text(text, encoding="utf-8")
+    truth = tmp_path / "r.faults.yaml"
+    truth.write_text(text, encoding="utf-8")
+    from rac.synth.truth import load_truth
+
+    with pytest.raises(RacError) as raised:
+        load_truth(truth)
+    assert [d.code for d in raised.value.diagnostics] == ["RAC009"]
+    assert raised.value.diagnostics[0].span is not None
+    commands = [
+        ["observe", str(path)],
+        ["import", "tug", str(path), "-o", str(tmp_path / "imported.ram")],
+        ["place", str(TEDUSAR), "--costs", str(path)],
+    ]
+    for argv in commands:
+        assert main(argv) == 1, argv
+        err = capsys.readouterr().err
+        assert _codes(err) == {"RAC009"}, (argv, err)
+        assert f"{path}:1:" in err
+    assert not (tmp_path / "imported.ram").exists()
+
+
+@pytest.mark.parametrize("output", [".", "", ".."])
+def test_output_directory_holding_the_working_directory(
+    output: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """`-o .` used to move the working directory aside and delete it (the shell that ran racc
+    was left in a removed directory); now it is refused and nothing changes."""
+    work = tmp_path / "work"
+    work.mkdir()
+    (work / "notes.txt").write_text("mine\n")
+    monkeypatch.chdir(work)
+    inode = os.stat(work).st_ino
+    assert main(["compile", str(TEDUSAR), "-o", output, "--no-svg"]) == 1
+    assert "error[RAC004]" in capsys.readouterr().err
+    assert os.stat(work).st_ino == inode and Path.cwd().exists()
+    assert sorted(p.name for p in work.iterdir()) == ["notes.txt"]
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".racc-")]
