@@ -104,3 +104,33 @@ def test_output_directory_holding_the_working_directory(
     assert os.stat(work).st_ino == inode and Path.cwd().exists()
     assert sorted(p.name for p in work.iterdir()) == ["notes.txt"]
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".racc-")]
+
+
+def test_synth_force_replaces_only_a_recording(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`racc synth -o DIR --force` used to remove any directory (`-o ~ --force`: the home)."""
+    stuff = tmp_path / "stuff"
+    stuff.mkdir()
+    (stuff / "precious.txt").write_text("mine\n")
+    args = ["synth", str(TEDUSAR), "-o", str(stuff), "--duration", "2", "--force", "-q"]
+    assert main(args) == 1
+    assert "error[RAC084]" in capsys.readouterr().err
+    assert (stuff / "precious.txt").read_text() == "mine\n"
+    assert not (tmp_path / "stuff.faults.yaml").exists()
+    # A previous recording (and an empty directory) is replaced as before.
+    run = tmp_path / "run"
+    run.mkdir()
+    args[3] = str(run)
+    assert main(args) == 0
+    assert main(args) == 0
+    assert sorted(p.name for p in run.iterdir()) == ["metadata.yaml", "run.db3"]
+
+
+def test_synth_under_a_file_is_an_input_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "afile").write_text("")
+    out = tmp_path / "afile" / "x.bag"
+    assert main(["synth", str(TEDUSAR), "-o", str(out), "--duration", "2", "-q"]) == 1
+    assert "error[RAC004]" in capsys.readouterr().err
