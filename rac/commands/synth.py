@@ -91,7 +91,9 @@ def register(sub: Any) -> None:
         choices=SCHEDULES,
         help="inject a fixed series of faults: thesis is §10.2.2's test run (six faults: 240 s)",
     )
-    parser.add_argument("--force", action="store_true", help="replace RUN (a previous recording) if it exists")
+    parser.add_argument(
+        "--force", action="store_true", help="replace RUN (a previous recording) if it exists"
+    )
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     parser.set_defaults(run=run)
 
@@ -118,9 +120,12 @@ def _not_a_recording(target: Path) -> str | None:
     if target.is_symlink() or not target.is_dir():
         return None
     entries = list(target.iterdir())
-    if entries and not any(e.name == "metadata.yaml" for e in entries) or not all(
+    if not entries:
+        return None
+    bag_files = all(
         e.is_file() and not e.is_symlink() and _BAG_FILE.fullmatch(e.name) for e in entries
-    ):
+    )
+    if not bag_files or not any(e.name == "metadata.yaml" for e in entries):
         return "is a directory that racc synth did not write (not a ROS 2 bag)"
     return None
 
