@@ -15,6 +15,7 @@ from rac.errors import RacError
 
 ROOT = Path(__file__).resolve().parent.parent
 TEDUSAR = ROOT / "models" / "tedusar.ram"
+PIONEER = ROOT / "models" / "pioneer.ram"
 
 # More nesting than the 64 levels the limits allow, and a "billion laughs" file: nine
 # aliases of nine aliases... (9**8 strings once expanded; the file itself is tiny).
@@ -134,3 +135,19 @@ def test_synth_under_a_file_is_an_input_error(
     out = tmp_path / "afile" / "x.bag"
     assert main(["synth", str(TEDUSAR), "-o", str(out), "--duration", "2", "-q"]) == 1
     assert "error[RAC004]" in capsys.readouterr().err
+
+
+def test_replay_drops_property_samples_far_outside_the_recording(
+    short_pioneer_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A sample at 1e300 s (or a CSV of another run, hours later) stepped the observers all
+    the way there: replay never ended.  Such samples are dropped, with a note."""
+    csv = short_pioneer_run.with_name("r.properties.csv")
+    lines = csv.read_text(encoding="utf-8").splitlines()
+    node = lines[1].split(",")[1]
+    far = tmp_path / "far.csv"
+    far.write_text("\n".join([*lines, f"2000,{node},1,1000000"]) + "\n", encoding="utf-8")
+    assert main(["replay", str(PIONEER), str(short_pioneer_run), "--properties", str(far)]) == 0
+    captured = capsys.readouterr()
+    assert "1 sample outside the recording's" in captured.err
+    assert "20.0 s" in captured.out

@@ -78,7 +78,15 @@ def load_run(path: str, needs: Needs, properties: str | None) -> RunInputs:
             )
         events.extend(statuses)
     if properties is not None:
-        events.extend(_properties(properties, run.start, needs.nodes))
+        samples, outside = _properties(properties, run.start, run.end - run.start, needs.nodes)
+        events.extend(samples)
+        if outside:
+            noun = "sample" if outside == 1 else "samples"
+            notes.append(
+                f"{properties}: {outside} {noun} outside the recording's "
+                f"{run.end - run.start:.1f} s (give or take {SAMPLE_SLACK_S:g} s), dropped: "
+                "is it this run's properties CSV?"
+            )
     elif needs.nodes:
         notes.append(
             f"{path}: no properties CSV; node and property observers stay silent "
@@ -143,12 +151,22 @@ def _level(value: object) -> int:
     return int(str(value))
 
 
-def _properties(path: str, start: float, nodes: frozenset[str]) -> list[Event]:
+# How far property samples may lie outside the recording's messages: the recorder samples
+# about once a second and starts and stops beside the bag, not with it.
+SAMPLE_SLACK_S = 60.0
+
+
+def _properties(
+    path: str, start: float, span: float, nodes: frozenset[str]
+) -> tuple[list[Event], int]:
+    """The samples of a properties CSV within the recording, and how many lie outside it
+    (a CSV of another run: replay would otherwise step the observers to its far times)."""
     rows = parse_samples(read_text(path), path)
     if not rows:
-        return []
+        return [], 0
     relative = rows[0][0] < start
-    samples = [(t if relative else t - start, n, c, m) for t, n, c, m in rows]
+    shifted_rows = [(t if relative else t - start, n, c, m) for t, n, c, m in rows]
+    samples = [r for r in shifted_rows if -SAMPLE_SLACK_S <= r[0] <= span + SAMPLE_SLACK_S]
     events: list[Event] = []
     for t, node, cpu, mem in samples:
         if cpu is not None:
@@ -156,7 +174,7 @@ def _properties(path: str, start: float, nodes: frozenset[str]) -> list[Event]:
         if mem is not None:
             events.append(PropertySample(t, node, "mem", mem))
     events.extend(liveness(samples, nodes))
-    return events
+    return events, len(shifted_rows) - len(samples)
 
 
 def liveness(
