@@ -4,6 +4,7 @@ Each ends in a coded error (exit 1), never in a traceback, a MemoryError or a lo
 
 from __future__ import annotations
 
+import argparse
 import os
 from pathlib import Path
 
@@ -151,3 +152,22 @@ def test_replay_drops_property_samples_far_outside_the_recording(
     captured = capsys.readouterr()
     assert "1 sample outside the recording's" in captured.err
     assert "20.0 s" in captured.out
+
+
+@pytest.mark.parametrize("period", ["1e-9", "1e-12", "0.0000001s", "0.5ms"])
+def test_a_diagnosis_period_too_short_is_refused(period: str) -> None:
+    """--diagnose-every 1e-9 made replay tick 2*10^10 times (and at 1e-12 the clock stood)."""
+    from rac.commands.replay import seconds
+
+    with pytest.raises(argparse.ArgumentTypeError, match="must be from 1 ms to 3600 s"):
+        seconds(period)
+    assert seconds("1ms") == 0.001
+
+
+def test_a_diagnosis_period_too_short_is_a_command_line_error(
+    short_pioneer_run: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as caught:
+        main(["replay", str(PIONEER), str(short_pioneer_run), "--diagnose-every", "0.5ms"])
+    assert caught.value.code == 2
+    assert "must be from 1 ms to 3600 s" in capsys.readouterr().err
