@@ -171,3 +171,23 @@ def test_a_diagnosis_period_too_short_is_a_command_line_error(
         main(["replay", str(PIONEER), str(short_pioneer_run), "--diagnose-every", "0.5ms"])
     assert caught.value.code == 2
     assert "must be from 1 ms to 3600 s" in capsys.readouterr().err
+
+
+def test_rewritten_and_new_files_keep_the_usual_modes(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Files were written through mkstemp and so left 0600: `racc fmt` made a shared model
+    unreadable to the robot's other users, and every new output was private."""
+    model = tmp_path / "m.ram"
+    model.write_text(TEDUSAR.read_text(encoding="utf-8").replace("hardware imu", "hardware  imu"))
+    model.chmod(0o640)
+    assert main(["fmt", str(model)]) == 0
+    assert model.stat().st_mode & 0o777 == 0o640
+    umask = os.umask(0o022)
+    try:
+        assert main(["export", "--ram", str(model), "-o", str(tmp_path / "new.ram")]) == 0
+    finally:
+        os.umask(umask)
+    assert (tmp_path / "new.ram").stat().st_mode & 0o777 == 0o644
+    assert main(["export", "--ram", str(model), "-o", str(tmp_path)]) == 1
+    assert "is a directory; give a file name" in capsys.readouterr().err

@@ -324,7 +324,17 @@ def write_file_atomically(path: Path, content: str) -> None:
     path = path.resolve()
     tmp: str | None = None
     try:
+        if path.is_dir():
+            message = f"{path}: is a directory; give a file name"
+            raise RacError([Diagnostic("RAC004", message)])
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+        # mkstemp makes the file private (0600): keep the mode of the file it replaces, or
+        # give a new one the usual mode (0666 less the umask), as an editor would.
+        try:
+            mode = path.stat().st_mode & 0o7777
+        except FileNotFoundError:
+            mode = 0o666 & _default_dir_mode()
+        os.chmod(fd, mode)
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as handle:
             handle.write(content)
         os.replace(tmp, path)
