@@ -191,3 +191,26 @@ def test_rewritten_and_new_files_keep_the_usual_modes(
     assert (tmp_path / "new.ram").stat().st_mode & 0o777 == 0o644
     assert main(["export", "--ram", str(model), "-o", str(tmp_path)]) == 1
     assert "is a directory; give a file name" in capsys.readouterr().err
+
+
+def test_replay_refuses_a_recording_with_a_time_stamp_far_off(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """One message stamped near 1970 in a bag of 2020: replay stepped the observers through
+    fifty years in 0.1 s steps and never ended."""
+    import sqlite3
+
+    run = tmp_path / "run"
+    assert main(["synth", str(TEDUSAR), "-o", str(run), "--duration", "3", "-q"]) == 0
+    with sqlite3.connect(run / "run.db3") as db:
+        db.execute("UPDATE messages SET timestamp = 1000 WHERE id = 5")
+    from rac.commands.common import load_and_compile
+    from rac.replay.load import needs_of, replayable
+    from rac.replay.sources import load_run
+
+    needs = needs_of([replayable(load_and_compile(str(TEDUSAR), quiet=True))])
+    with pytest.raises(RacError):  # before the replay itself (which would not end)
+        load_run(str(run), needs, None)
+    assert main(["replay", str(TEDUSAR), str(run), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "error[RAC080]" in err and "a time stamp is far off" in err
