@@ -214,3 +214,19 @@ def test_replay_refuses_a_recording_with_a_time_stamp_far_off(
     assert main(["replay", str(TEDUSAR), str(run), "-q"]) == 1
     err = capsys.readouterr().err
     assert "error[RAC080]" in err and "a time stamp is far off" in err
+
+
+def test_a_recording_with_a_wrong_topic_type_says_what_broke(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A topic whose type was edited in the bag's index: the message was only the bare key
+    "'sensor_msgs/msg/Imu'"."""
+    import sqlite3
+
+    run = tmp_path / "run"
+    assert main(["synth", str(TEDUSAR), "-o", str(run), "--duration", "2", "-q"]) == 0
+    with sqlite3.connect(run / "run.db3") as db:
+        db.execute("UPDATE topics SET type = 'std_msgs/msg/String' WHERE name = '/imu_data'")
+    assert main(["replay", str(TEDUSAR), str(run), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "error[RAC080]" in err and "damaged or inconsistent (KeyError: " in err

@@ -133,6 +133,9 @@ def read_run(
                 return _read(_WithTypestore(bag, store), str(path), selector, topics)
     except _DAMAGED as err:
         why = str(err) or f"damaged ({type(err).__name__})"
+        if isinstance(err, KeyError | IndexError | AssertionError) and str(err):
+            # Their text alone is a bare key or index ("'sensor_msgs/msg/Imu'").
+            why = f"damaged or inconsistent ({type(err).__name__}: {err})"
         raise _fail(str(path), why) from None
 
 
