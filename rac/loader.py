@@ -43,6 +43,15 @@ def read_text(path: str | Path, code: str = "RAC004") -> str:
     return text.removeprefix("\ufeff")
 
 
+def is_file(path: Path) -> bool:
+    """``path.is_file()``, False too where the name cannot be looked up at all (too long for
+    the file system: ``is_file`` raises then), so that reading it reports the problem."""
+    try:
+        return path.is_file()
+    except OSError:
+        return False
+
+
 def _not_utf8(path: str, data: bytes, err: UnicodeDecodeError, code: str) -> Diagnostic:
     """Where the first byte that is not UTF-8 is, as an editor counts lines and columns."""
     line_start = data.rfind(b"\n", 0, err.start) + 1

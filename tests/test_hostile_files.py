@@ -230,3 +230,28 @@ def test_a_recording_with_a_wrong_topic_type_says_what_broke(
     assert main(["replay", str(TEDUSAR), str(run), "-q"]) == 1
     err = capsys.readouterr().err
     assert "error[RAC080]" in err and "damaged or inconsistent (KeyError: " in err
+
+
+def test_unusable_paths_are_input_errors(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A loop of symbolic links or a name longer than the file system allows were bug
+    reports (exit 70: RuntimeError, OSError ENAMETOOLONG from Path.exists or resolve)."""
+    monkeypatch.chdir(tmp_path)
+    Path("loop").symlink_to("loop")
+    long = "x" * 300
+    model = str(TEDUSAR)
+    commands = [
+        ["compile", model, "-o", "loop", "-q"],
+        ["compile", model, "-o", long, "-q"],
+        ["export", "--ram", model, "-o", f"loop/{long}"],
+        ["synth", model, "-o", long, "--duration", "2", "-q"],
+        ["synth", model, "-o", f"{long}.bag", "--duration", "2", "-q"],
+        ["replay", model, long, "-q"],
+        ["learn", long, "--base", model, "-o", "learned.ram", "-q"],
+    ]
+    for argv in commands:
+        assert main(argv) == 1, argv
+        err = capsys.readouterr().err
+        assert "error[RAC004]" in err or "error[RAC080]" in err, (argv, err)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["loop"]

@@ -191,8 +191,8 @@ def write_files_atomically(
     link is impossible.  Any failure before the swap (a full disk, an unwritable or immutable
     entry, a directory where a file goes) leaves the old directory exactly as it was.
     """
-    directory = directory.resolve()
-    if directory.exists() and not directory.is_dir():
+    directory = _resolved(directory)
+    if _exists(directory) and not directory.is_dir():
         message = f"{directory}: exists and is not a directory; choose another output directory"
         raise RacError([Diagnostic("RAC004", message)])
     if _holds_cwd(directory):
@@ -232,6 +232,25 @@ def write_files_atomically(
     finally:
         if staged is not None:
             shutil.rmtree(staged, ignore_errors=True)  # nothing half-written is left behind
+
+
+def _resolved(path: Path) -> Path:
+    """``path`` made absolute, its links followed; RAC004 for a loop of symbolic links or a
+    name too long for the file system (a bug report, exit 70, before)."""
+    try:
+        resolved = path.resolve()
+        resolved.exists()  # ENAMETOOLONG and ELOOP show here, not as "missing"
+    except (OSError, RuntimeError) as err:  # Python 3.11 raises RuntimeError on a loop
+        why = err.strerror if isinstance(err, OSError) and err.strerror else str(err)
+        raise RacError([Diagnostic("RAC004", f"{path}: cannot write: {why}")]) from None
+    return resolved
+
+
+def _exists(path: Path) -> bool:
+    try:
+        return path.exists()
+    except OSError:
+        return False
 
 
 def _holds_cwd(directory: Path) -> bool:
@@ -321,7 +340,7 @@ def _default_dir_mode() -> int:
 
 def write_file_atomically(path: Path, content: str) -> None:
     """Replace one file atomically (a temp file beside it, then a rename)."""
-    path = path.resolve()
+    path = _resolved(path)
     tmp: str | None = None
     try:
         if path.is_dir():

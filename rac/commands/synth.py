@@ -130,6 +130,21 @@ def _not_a_recording(target: Path) -> str | None:
     return None
 
 
+def _check_targets(outputs: tuple[Path, ...], force: bool) -> None:
+    """RAC084 for an output that exists (without ``force``) or that is not ours to replace."""
+    for target in outputs:
+        if (target.exists() or target.is_symlink()) and not force:
+            raise RacError(
+                [Diagnostic("RAC084", f"{target} exists", hint="remove it or pass --force")]
+            )
+        not_ours = _not_a_recording(target)
+        if not_ours is not None:
+            # --force replaces a previous recording, never a directory of other things
+            # (`-o ~ --force` would have removed the home directory).
+            hint = "choose another output name; --force replaces only a recording"
+            raise RacError([Diagnostic("RAC084", f"{target}: {not_ours}", hint=hint)])
+
+
 def _command_line_problem(args: argparse.Namespace, out: Path, ros_version: int) -> str | None:
     """What is wrong with the options (exit 2), or None."""
     if not (math.isfinite(args.duration) and 0 < args.duration <= MAX_DURATION_S):
@@ -178,17 +193,10 @@ def run(args: argparse.Namespace) -> int:
     faults_path = truth_path(out)
     truth = dump_truth(ground_truth(model, args.duration, faults), out.name)
     outputs = (out, csv_path, faults_path)
-    for target in outputs:
-        if (target.exists() or target.is_symlink()) and not args.force:
-            raise RacError(
-                [Diagnostic("RAC084", f"{target} exists", hint="remove it or pass --force")]
-            )
-        not_ours = _not_a_recording(target)
-        if not_ours is not None:
-            # --force replaces a previous recording, never a directory of other things
-            # (`-o ~ --force` would have removed the home directory).
-            hint = "choose another output name; --force replaces only a recording"
-            raise RacError([Diagnostic("RAC084", f"{target}: {not_ours}", hint=hint)])
+    try:
+        _check_targets(outputs, args.force)
+    except OSError as err:  # a name too long for the file system, say
+        raise RacError([Diagnostic("RAC004", f"{out}: cannot write: {err.strerror}")]) from None
     storage = args.storage or "sqlite3"
     options = SynthOptions(args.duration, args.seed, ros_version, storage, faults)
     plan = plan_recording(model, options)

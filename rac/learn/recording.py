@@ -116,9 +116,9 @@ def read_run(
 ) -> Run:
     """Every topic of one recording (or only ``topics``), with the fields ``selector`` wants."""
     p = Path(path)
-    if not p.exists():
-        raise _fail(str(path), "no such file or directory")
     try:
+        if not p.exists():  # inside: a name too long for the file system raises here
+            raise _fail(str(path), "no such file or directory")
         # Bags written without message definitions (older ROS 2) fall back to the standard types.
         store = get_typestore(Stores.ROS2_HUMBLE if p.is_dir() else Stores.ROS1_NOETIC)
         try:
