@@ -245,6 +245,7 @@ def test_unusable_paths_are_input_errors(
         ["compile", model, "-o", "loop", "-q"],
         ["compile", model, "-o", long, "-q"],
         ["export", "--ram", model, "-o", f"loop/{long}"],
+        ["ros-package", "-o", "loop", "--ros", "1", "-q"],
         ["synth", model, "-o", long, "--duration", "2", "-q"],
         ["synth", model, "-o", f"{long}.bag", "--duration", "2", "-q"],
         ["replay", model, long, "-q"],

@@ -191,7 +191,7 @@ def write_files_atomically(
     link is impossible.  Any failure before the swap (a full disk, an unwritable or immutable
     entry, a directory where a file goes) leaves the old directory exactly as it was.
     """
-    directory = _resolved(directory)
+    directory = resolved_path(directory)
     if _exists(directory) and not directory.is_dir():
         message = f"{directory}: exists and is not a directory; choose another output directory"
         raise RacError([Diagnostic("RAC004", message)])
@@ -234,7 +234,7 @@ def write_files_atomically(
             shutil.rmtree(staged, ignore_errors=True)  # nothing half-written is left behind
 
 
-def _resolved(path: Path) -> Path:
+def resolved_path(path: Path) -> Path:
     """``path`` made absolute, its links followed; RAC004 for a loop of symbolic links or a
     name too long for the file system (a bug report, exit 70, before)."""
     try:
@@ -340,7 +340,7 @@ def _default_dir_mode() -> int:
 
 def write_file_atomically(path: Path, content: str) -> None:
     """Replace one file atomically (a temp file beside it, then a rename)."""
-    path = _resolved(path)
+    path = resolved_path(path)
     tmp: str | None = None
     try:
         if path.is_dir():
