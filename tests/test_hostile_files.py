@@ -256,3 +256,22 @@ def test_unusable_paths_are_input_errors(
         err = capsys.readouterr().err
         assert "error[RAC004]" in err or "error[RAC080]" in err, (argv, err)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["loop"]
+
+
+def test_replay_says_when_the_recording_lacks_a_field_the_observers_read(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A relation on a field the recorded message type does not have: its observer stayed
+    silent for the whole replay, and nothing said so ("no fault diagnosed")."""
+    run = tmp_path / "run"
+    assert main(["synth", str(TEDUSAR), "-o", str(run), "--duration", "3", "-q"]) == 0
+    text = TEDUSAR.read_text(encoding="utf-8")
+    text = text.replace("twist.twist.angular.z, yaw\n", "twist.twist.angular.z, yaw, bogus\n", 1)
+    text = text.replace("relate /imu_data.yaw ~ /pose.yaw", "relate /imu_data.yaw ~ /pose.bogus")
+    model = tmp_path / "bogus.ram"
+    model.write_text(text, encoding="utf-8")
+    assert main(["replay", str(TEDUSAR), str(run)]) == 0
+    assert "which has no" not in capsys.readouterr().err
+    assert main(["replay", str(model), str(run)]) == 0
+    err = capsys.readouterr().err
+    assert "/pose is recorded as nav_msgs/Odometry, which has no bogus" in err

@@ -20,7 +20,7 @@ from __future__ import annotations
 import csv
 import io
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -67,7 +67,7 @@ def properties_beside(run: str | Path) -> Path:
 def load_run(path: str, needs: Needs, properties: str | None) -> RunInputs:
     """Every input a model's observers take from one recorded run."""
     run = _read_topics(path, needs)
-    notes: list[str] = []
+    notes: list[str] = list(_missing_fields(path, run, needs))
     events: list[Event] = list(message_stream(run.topics, run.start))
     messages = len(events)
     if needs.diagnostics:
@@ -105,6 +105,21 @@ def load_run(path: str, needs: Needs, properties: str | None) -> RunInputs:
         hint = "was simulated time mixed with wall-clock time while recording?"
         raise RacError([Diagnostic("RAC080", message, hint=hint)])
     return RunInputs(path, run.start, duration, tuple(events), messages, tuple(notes))
+
+
+def _missing_fields(path: str, run: Run, needs: Needs) -> Iterator[str]:
+    """A note per recorded topic whose messages lack fields the observers read (a model of
+    another message type, a misspelt field): those observers would stay silent unsaid."""
+    recorded = {t.name: t for t in run.topics}
+    for topic, fields in sorted(needs.topic_fields.items()):
+        data = recorded.get(topic)
+        missing = sorted(fields - set(data.fields)) if data is not None else []
+        if data is not None and missing:
+            yield (
+                f"{path}: {topic} is recorded as {data.msg_type}, which has no "
+                f"{', '.join(missing)}: the observers of {'it' if len(missing) == 1 else 'them'} "
+                "stay silent"
+            )
 
 
 def shifted(events: Iterable[Event], by: float) -> list[Event]:
