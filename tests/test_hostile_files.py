@@ -275,3 +275,15 @@ def test_replay_says_when_the_recording_lacks_a_field_the_observers_read(
     assert main(["replay", str(model), str(run)]) == 0
     err = capsys.readouterr().err
     assert "/pose is recorded as nav_msgs/Odometry, which has no bogus" in err
+
+
+def test_learn_quiet_prints_nothing_on_success(
+    short_pioneer_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`learn -q` ("print nothing on success") still printed its notes on stderr."""
+    out = tmp_path / "learned.ram"
+    args = ["learn", str(short_pioneer_run), "--base", str(PIONEER), "-o", str(out)]
+    assert main(args) == 0
+    assert "note:" in capsys.readouterr().err  # the run has notes to tell
+    assert main([*args, "-q"]) == 0
+    assert capsys.readouterr() == ("", "")
