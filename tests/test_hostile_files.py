@@ -287,3 +287,26 @@ def test_learn_quiet_prints_nothing_on_success(
     assert "note:" in capsys.readouterr().err  # the run has notes to tell
     assert main([*args, "-q"]) == 0
     assert capsys.readouterr() == ("", "")
+
+
+def test_an_mcap_bag_with_a_damaged_length_is_an_input_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A record length of 2**62 in an MCAP file: rosbags asked for that much memory, and the
+    MemoryError was a bug report (exit 70)."""
+    import struct
+
+    run = tmp_path / "run"
+    args = ["synth", str(TEDUSAR), "-o", str(run), "--duration", "2", "--storage", "mcap", "-q"]
+    assert main(args) == 0
+    mcap = run / "run.mcap"
+    data = mcap.read_bytes()
+    assert data[:9] == b"\x89MCAP0\r\n\x01"  # magic, then the header record's opcode
+    mcap.write_bytes(data[:9] + struct.pack("<Q", 1 << 62) + data[17:])
+    for argv in (
+        ["replay", str(TEDUSAR), str(run)],
+        ["learn", str(run), "-o", str(tmp_path / "x.ram")],
+    ):
+        assert main([*argv, "-q"]) == 1
+        err = capsys.readouterr().err
+        assert "error[RAC080]" in err and "ran out of memory" in err

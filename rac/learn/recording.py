@@ -137,6 +137,10 @@ def read_run(
             # Their text alone is a bare key or index ("'sensor_msgs/msg/Imu'").
             why = f"damaged or inconsistent ({type(err).__name__}: {err})"
         raise _fail(str(path), why) from None
+    except MemoryError:
+        # A damaged length field (an MCAP record's, say) asks the reader for terabytes.
+        why = "reading it ran out of memory: a length in it is damaged, or the run is too large"
+        raise _fail(str(path), why) from None
 
 
 class _WithTypestore:
