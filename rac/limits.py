@@ -20,7 +20,7 @@ from typing import Any
 
 import yaml
 
-from rac.errors import Diagnostic, Span
+from rac.errors import Diagnostic, RacError, Span
 
 MAX_NUMBER_CHARS = 40
 NUMBER_MAX = 1e15
@@ -30,6 +30,9 @@ MAX_DOCUMENT_BYTES = 64 * 1024 * 1024
 # model.yaml is read by PyYAML, whose composer is slow (about a second a megabyte with libyaml):
 # a generated model.yaml of a 10,000-node robot is about 2 MB.
 MAX_YAML_BYTES = 16 * 1024 * 1024
+# Any text file racc reads (a model, observations, a properties CSV): a recording or a device
+# given by mistake is refused before it fills the memory.
+MAX_INPUT_BYTES = 256 * 1024 * 1024
 
 RANGE = f"finite and at most {NUMBER_MAX:g} in magnitude"
 
@@ -211,3 +214,24 @@ def compose_yaml(text: str) -> yaml.Node | None:
                 done.value = items
             add(done)
     return root
+
+
+def yaml_limit_error(text: str, file: str) -> RacError | None:
+    """RAC009, located, when ``text`` is beyond the YAML limits (its size, nesting, anchors and
+    aliases), else None: then ``yaml.safe_load`` is safe, and says itself what is not YAML.
+
+    For the YAML files read with ``yaml.safe_load`` (observers.yaml, costs, tug configs, faults
+    files): its recursion and its aliases (a "billion laughs" file) are not to be trusted.
+    """
+    if len(text) > MAX_YAML_BYTES:
+        message = f"the file is {len(text):,} characters long (at most {MAX_YAML_BYTES:,})"
+        return RacError([Diagnostic("RAC009", message, Span(file, 1, 1, 1, 2))])
+    try:
+        compose_yaml(text)
+    except YamlLimit as err:
+        line, column = err.mark.line + 1, err.mark.column + 1
+        where = Span(file, line, column, line, column + 1)
+        return RacError([Diagnostic("RAC009", err.message, where)], text)
+    except yaml.YAMLError:
+        return None
+    return None

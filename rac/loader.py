@@ -7,7 +7,8 @@ from typing import TYPE_CHECKING
 
 import yaml
 
-from rac.errors import Diagnostic, RacError
+from rac.errors import Diagnostic, RacError, Span
+from rac.limits import MAX_INPUT_BYTES, yaml_limit_error
 from rac.logic import parse_atom
 
 if TYPE_CHECKING:  # the parsers and passes load on first use: `racc diagnose x.yaml` needs none
@@ -15,15 +16,54 @@ if TYPE_CHECKING:  # the parsers and passes load on first use: `racc diagnose x.
     from rac.passes.observers import ObserverSpec, ParamValue
 
 
-def read_text(path: str | Path) -> str:
+def read_text(path: str | Path, code: str = "RAC004") -> str:
+    """A text file racc reads (a model, observations, a CSV...): UTF-8, a leading byte-order
+    mark dropped, at most :data:`MAX_INPUT_BYTES`; ``code`` (RAC004 unless the caller has its
+    own) when it cannot be read, with the line and column of a byte that is not UTF-8."""
     try:
-        return Path(path).read_text(encoding="utf-8")
+        # One byte past the limit tells an oversized file (or /dev/zero, or a bag given as a
+        # model by mistake) without holding all of it in memory.
+        with Path(path).open("rb") as handle:
+            data = handle.read(MAX_INPUT_BYTES + 1)
     except FileNotFoundError:
-        raise RacError([Diagnostic("RAC004", f"{path}: no such file")]) from None
+        raise RacError([Diagnostic(code, f"{path}: no such file")]) from None
     except IsADirectoryError:
-        raise RacError([Diagnostic("RAC004", f"{path}: is a directory, not a file")]) from None
-    except (OSError, UnicodeDecodeError) as err:
-        raise RacError([Diagnostic("RAC004", f"{path}: cannot read: {err}")]) from None
+        raise RacError([Diagnostic(code, f"{path}: is a directory, not a file")]) from None
+    except OSError as err:
+        raise RacError([Diagnostic(code, f"{path}: cannot read: {err}")]) from None
+    if len(data) > MAX_INPUT_BYTES:
+        message = f"{path}: larger than {MAX_INPUT_BYTES // 2**20} MiB; is it the right file?"
+        raise RacError([Diagnostic("RAC009", message)])
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        shown = data.decode("utf-8", errors="replace")  # the line, its bad byte as U+FFFD
+        raise RacError([_not_utf8(str(path), data, err, code)], shown) from None
+    # Editors on Windows start UTF-8 files with a byte-order mark: it is no part of the text.
+    return text.removeprefix("\ufeff")
+
+
+def is_file(path: Path) -> bool:
+    """``path.is_file()``, False too where the name cannot be looked up at all (too long for
+    the file system: ``is_file`` raises then), so that reading it reports the problem."""
+    try:
+        return path.is_file()
+    except OSError:
+        return False
+
+
+def _not_utf8(path: str, data: bytes, err: UnicodeDecodeError, code: str) -> Diagnostic:
+    """Where the first byte that is not UTF-8 is, as an editor counts lines and columns."""
+    line_start = data.rfind(b"\n", 0, err.start) + 1
+    line = data.count(b"\n", 0, err.start) + 1
+    column = len(data[line_start : err.start].decode("utf-8", errors="replace")) + 1
+    message = f"not UTF-8 text: byte 0x{data[err.start]:02x} ({err.reason})"
+    return Diagnostic(
+        code,
+        message,
+        Span(path, line, column, line, column + 1),
+        hint="save the file as UTF-8",
+    )
 
 
 def load_model(path: str | Path) -> Model:
@@ -62,6 +102,9 @@ def load_observers(path: str | Path) -> tuple[str, tuple[ObserverSpec, ...]]:
         hint = "give the observers.yaml that 'racc compile' wrote"
         return RacError([Diagnostic("RAC056", f"{path}: {why}", hint=hint)])
 
+    limit = yaml_limit_error(text, str(path))
+    if limit is not None:
+        raise limit
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as err:

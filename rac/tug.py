@@ -28,6 +28,7 @@ import yaml
 
 from rac.errors import Diagnostic, RacError, Severity
 from rac.ir import Model, Name, Node, Publication, Topic
+from rac.limits import yaml_limit_error
 
 DEFAULT_RATE_HZ = 10.0
 
@@ -88,6 +89,9 @@ def _identifier(text: str) -> str:
 
 
 def import_tug(text: str, path: str, robot: str, default_rate: float = DEFAULT_RATE_HZ) -> Imported:
+    limit = yaml_limit_error(text, path)
+    if limit is not None:
+        raise limit
     try:
         doc = yaml.safe_load(text)
     except yaml.YAMLError as err:

@@ -22,7 +22,8 @@ from rac.fmt import format_model
 
 ROOT = Path(__file__).resolve().parent.parent
 MODELS = sorted((ROOT / "models").glob("*.ram"))
-ERRORS = sorted((ROOT / "tests" / "errors").glob("*.ram"))
+# RAC004 files cannot be read (not UTF-8): no parser ever sees them.
+ERRORS = sorted(p for p in (ROOT / "tests" / "errors").glob("*.ram") if p.name[:6] != "RAC004")
 
 # The fast path needs atomic groups (Python 3.11+); on 3.10 Lark reads everything.
 needs_atomic = pytest.mark.skipif(sys.version_info < (3, 11), reason="fast path is 3.11+")

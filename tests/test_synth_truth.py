@@ -392,7 +392,7 @@ def test_an_unreadable_file_is_an_error(tmp_path: Path) -> None:
     with pytest.raises(RacError) as err:
         load_truth(tmp_path / "missing.faults.yaml")
     assert err.value.diagnostics[0].code == "RAC085"
-    assert "cannot read" in err.value.diagnostics[0].message
+    assert "no such file" in err.value.diagnostics[0].message
 
 
 def test_the_documented_examples_load() -> None:

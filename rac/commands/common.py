@@ -196,10 +196,16 @@ def write_files_atomically(
     link is impossible.  Any failure before the swap (a full disk, an unwritable or immutable
     entry, a directory where a file goes) leaves the old directory exactly as it was.
     """
-    directory = directory.resolve()
-    if directory.exists() and not directory.is_dir():
+    directory = resolved_path(directory)
+    if _exists(directory) and not directory.is_dir():
         message = f"{directory}: exists and is not a directory; choose another output directory"
         raise RacError([Diagnostic("RAC004", message)])
+    if _holds_cwd(directory):
+        # The swap would move the working directory aside and delete it: the shell that ran
+        # racc would be left in a removed directory (and `-o /` would copy the disk).
+        message = f"{directory}: is the current directory or holds it, and racc replaces DIR"
+        hint = "write into a directory of its own, e.g. '-o build'"
+        raise RacError([Diagnostic("RAC004", message, hint=hint)])
     ours = set(files) | set(owned)
     staged: str | None = None
     try:
@@ -231,6 +237,34 @@ def write_files_atomically(
     finally:
         if staged is not None:
             shutil.rmtree(staged, ignore_errors=True)  # nothing half-written is left behind
+
+
+def resolved_path(path: Path) -> Path:
+    """``path`` made absolute, its links followed; RAC004 for a loop of symbolic links or a
+    name too long for the file system (a bug report, exit 70, before)."""
+    try:
+        resolved = path.resolve()
+        resolved.exists()  # ENAMETOOLONG and ELOOP show here, not as "missing"
+    except (OSError, RuntimeError) as err:  # Python 3.11 raises RuntimeError on a loop
+        why = err.strerror if isinstance(err, OSError) and err.strerror else str(err)
+        raise RacError([Diagnostic("RAC004", f"{path}: cannot write: {why}")]) from None
+    return resolved
+
+
+def _exists(path: Path) -> bool:
+    try:
+        return path.exists()
+    except OSError:
+        return False
+
+
+def _holds_cwd(directory: Path) -> bool:
+    """True when ``directory`` (resolved) is the working directory or one of its parents."""
+    try:
+        cwd = Path.cwd().resolve()
+    except OSError:  # the working directory was removed: nothing to protect
+        return False
+    return cwd == directory or directory in cwd.parents
 
 
 # FS_IOC_GETFLAGS and the immutable and append-only flags of Linux (linux/fs.h): such an
@@ -311,10 +345,20 @@ def _default_dir_mode() -> int:
 
 def write_file_atomically(path: Path, content: str) -> None:
     """Replace one file atomically (a temp file beside it, then a rename)."""
-    path = path.resolve()
+    path = resolved_path(path)
     tmp: str | None = None
     try:
+        if path.is_dir():
+            message = f"{path}: is a directory; give a file name"
+            raise RacError([Diagnostic("RAC004", message)])
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+        # mkstemp makes the file private (0600): keep the mode of the file it replaces, or
+        # give a new one the usual mode (0666 less the umask), as an editor would.
+        try:
+            mode = path.stat().st_mode & 0o7777
+        except FileNotFoundError:
+            mode = 0o666 & _default_dir_mode()
+        os.chmod(fd, mode)
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as handle:
             handle.write(content)
         os.replace(tmp, path)

@@ -180,7 +180,7 @@ def _learned(args: argparse.Namespace, quiet: bool) -> list[Candidate]:
     from rac.learn.options import LearnOptions
     from rac.learn.properties import parse_properties, property_stats
     from rac.learn.recording import read_recording
-    from rac.loader import read_text
+    from rac.loader import is_file, read_text
     from rac.pipeline import compile_model
     from rac.replay.load import replayable
     from rac.replay.sources import properties_beside
@@ -194,7 +194,7 @@ def _learned(args: argparse.Namespace, quiet: bool) -> list[Candidate]:
     samples: dict[str, dict[str, list[float]]] = {}
     for run in args.learn_from:
         csv = properties_beside(run)
-        if csv.is_file():
+        if is_file(csv):
             for node, props in parse_properties(read_text(csv), str(csv)).items():
                 into = samples.setdefault(node, {"cpu": [], "mem": []})
                 for prop, values in props.items():

@@ -188,7 +188,7 @@ def run(args: argparse.Namespace) -> int:
     result = learn(recording, options, base=base, graph=graph, properties=properties)
     compile_model(result.model)  # the learned model must compile; a failure here is a bug
     total_s = time.perf_counter() - started
-    for note in result.notes:
+    for note in () if args.quiet else result.notes:
         print(f"note: {note}", file=sys.stderr)
     write_file_atomically(Path(args.output), format_model(result.model))
     if args.report:

@@ -18,6 +18,7 @@ from rac.commands.common import add_command, write_file_atomically
 from rac.diagnosis import load_theory
 from rac.errors import Diagnostic, RacError
 from rac.fmt import format_model
+from rac.limits import yaml_limit_error
 from rac.loader import load_model, read_text
 
 
@@ -83,8 +84,12 @@ def _budget(text: str) -> float:
 
 
 def load_costs(path: str) -> dict[str, float]:
+    text = read_text(path)
+    limit = yaml_limit_error(text, path)
+    if limit is not None:
+        raise limit
     try:
-        doc = yaml.safe_load(read_text(path))
+        doc = yaml.safe_load(text)
     except yaml.YAMLError as err:
         raise RacError([Diagnostic("RAC062", f"{path}: not YAML: {err}")]) from None
     if doc is None:

@@ -19,16 +19,21 @@ from rac.commands.common import (
 
 _DURATION = re.compile(r"\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*(ms|s)?\s*")
 MAX_PERIOD_S = 3600.0
+# A diagnosis tick every nanosecond would be 10^10 ticks for a 10 s run: replay never ended
+# (and below 1e-9 s the rounded clock stopped moving at all).
+MIN_PERIOD_S = 0.001
 
 
 def seconds(text: str) -> float:
-    """argparse type: ``1s``, ``500ms`` or a plain number of seconds, above 0."""
+    """argparse type: ``1s``, ``500ms`` or a plain number of seconds, 1 ms to an hour."""
     match = _DURATION.fullmatch(text)
     if match is None:
         raise argparse.ArgumentTypeError(f"'{text}' is not a duration such as 1s, 500ms or 2.5")
     value = float(match[1]) / (1000.0 if match[2] == "ms" else 1.0)
-    if not 0 < value <= MAX_PERIOD_S:
-        raise argparse.ArgumentTypeError(f"'{text}' must be above 0 and at most {MAX_PERIOD_S:g} s")
+    if not MIN_PERIOD_S <= value <= MAX_PERIOD_S:
+        raise argparse.ArgumentTypeError(
+            f"'{text}' must be from {MIN_PERIOD_S * 1000:g} ms to {MAX_PERIOD_S:g} s"
+        )
     return value
 
 

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from rac.commands.common import add_command, add_ros_option, ros_version
+from rac.commands.common import add_command, add_ros_option, resolved_path, ros_version
 from rac.errors import Diagnostic, RacError
 
 
@@ -63,7 +63,7 @@ def write_package(out: Path, python: str | None = None, ros: int = 1) -> Path:
 
 
 def run(args: argparse.Namespace) -> int:
-    out = Path(args.output).resolve()
+    out = resolved_path(Path(args.output))
     ros = ros_version(args)
     where = write_package(out, args.python, ros)
     if not args.quiet:

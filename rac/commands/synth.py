@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
 import shutil
 import sys
 import tempfile
@@ -112,7 +113,8 @@ def register(sub: Any) -> None:
     parser.add_argument(
         "--force",
         action="store_true",
-        help="replace RUN and the files beside it (without it an existing output is an error)",
+        help="replace RUN and the files beside it if RUN is a previous recording (without it an "
+        "existing output is an error)",
     )
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     parser.set_defaults(run=run)
@@ -128,6 +130,41 @@ def _remove(path: Path) -> None:
         shutil.rmtree(path)
     elif path.exists() or path.is_symlink():
         path.unlink()
+
+
+# What a ROS 2 bag directory holds: its metadata, and its storage files (with SQLite's
+# journal files beside them).
+_BAG_FILE = re.compile(r"metadata\.yaml|.+\.(?:db3|mcap)(?:-(?:shm|wal|journal))?(?:\.zstd)?")
+
+
+def _not_a_recording(target: Path) -> str | None:
+    """Why ``target`` is no output of a previous ``racc synth`` to replace, or None."""
+    if target.is_symlink() or not target.is_dir():
+        return None
+    entries = list(target.iterdir())
+    if not entries:
+        return None
+    bag_files = all(
+        e.is_file() and not e.is_symlink() and _BAG_FILE.fullmatch(e.name) for e in entries
+    )
+    if not bag_files or not any(e.name == "metadata.yaml" for e in entries):
+        return "is a directory that racc synth did not write (not a ROS 2 bag)"
+    return None
+
+
+def _check_targets(outputs: tuple[Path, ...], force: bool) -> None:
+    """RAC084 for an output that exists (without ``force``) or that is not ours to replace."""
+    for target in outputs:
+        if (target.exists() or target.is_symlink()) and not force:
+            raise RacError(
+                [Diagnostic("RAC084", f"{target} exists", hint="remove it or pass --force")]
+            )
+        not_ours = _not_a_recording(target)
+        if not_ours is not None:
+            # --force replaces a previous recording, never a directory of other things
+            # (`-o ~ --force` would have removed the home directory).
+            hint = "choose another output name; --force replaces only a recording"
+            raise RacError([Diagnostic("RAC084", f"{target}: {not_ours}", hint=hint)])
 
 
 def _command_line_problem(args: argparse.Namespace, out: Path, ros_version: int) -> str | None:
@@ -178,16 +215,15 @@ def run(args: argparse.Namespace) -> int:
     faults_path = truth_path(out)
     truth = dump_truth(ground_truth(model, args.duration, faults), out.name)
     outputs = (out, csv_path, faults_path)
-    for target in outputs:
-        if (target.exists() or target.is_symlink()) and not args.force:
-            raise RacError(
-                [Diagnostic("RAC084", f"{target} exists", hint="remove it or pass --force")]
-            )
+    try:
+        _check_targets(outputs, args.force)
+    except OSError as err:  # a name too long for the file system, say
+        raise RacError([Diagnostic("RAC004", f"{out}: cannot write: {err.strerror}")]) from None
     storage = args.storage or "sqlite3"
     options = SynthOptions(args.duration, args.seed, ros_version, storage, faults)
     plan = plan_recording(model, options)
-    out.parent.mkdir(parents=True, exist_ok=True)
     try:
+        out.parent.mkdir(parents=True, exist_ok=True)
         # Write beside the target, then move into place: no half-written recording remains.
         with tempfile.TemporaryDirectory(prefix=".racc-synth-", dir=out.parent) as tmp:
             staged = Path(tmp) / out.name

@@ -116,9 +116,9 @@ def read_run(
 ) -> Run:
     """Every topic of one recording (or only ``topics``), with the fields ``selector`` wants."""
     p = Path(path)
-    if not p.exists():
-        raise _fail(str(path), "no such file or directory")
     try:
+        if not p.exists():  # inside: a name too long for the file system raises here
+            raise _fail(str(path), "no such file or directory")
         # Bags written without message definitions (older ROS 2) fall back to the standard types.
         store = get_typestore(Stores.ROS2_HUMBLE if p.is_dir() else Stores.ROS1_NOETIC)
         try:
@@ -133,6 +133,13 @@ def read_run(
                 return _read(_WithTypestore(bag, store), str(path), selector, topics)
     except _DAMAGED as err:
         why = str(err) or f"damaged ({type(err).__name__})"
+        if isinstance(err, KeyError | IndexError | AssertionError) and str(err):
+            # Their text alone is a bare key or index ("'sensor_msgs/msg/Imu'").
+            why = f"damaged or inconsistent ({type(err).__name__}: {err})"
+        raise _fail(str(path), why) from None
+    except MemoryError:
+        # A damaged length field (an MCAP record's, say) asks the reader for terabytes.
+        why = "reading it ran out of memory: a length in it is damaged, or the run is too large"
         raise _fail(str(path), why) from None
 
 

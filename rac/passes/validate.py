@@ -271,7 +271,8 @@ def check_channels(model: Model) -> Iterator[Diagnostic]:
         if hw.channel is not None and hw.channel < 1:
             yield _error("RAC029", f"board channels count from 1, not {hw.channel}", hw.span)
         if hw.switchable and hw.channel is not None:
-            if hw.channel in owners:
+            # The same name again is a duplicate declaration (RAC010 says so), not a clash.
+            if owners.get(hw.channel, hw.name.value) != hw.name.value:
                 msg = (
                     f"'{hw.name.value}' and '{owners[hw.channel]}' are both on channel {hw.channel}"
                 )

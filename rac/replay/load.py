@@ -8,6 +8,7 @@ from pathlib import Path
 
 from rac.diagnosis.theory import Theory
 from rac.errors import Diagnostic, RacError
+from rac.loader import is_file
 from rac.observe.bank import ObserverBank
 from rac.passes.observers import ObserverSpec
 from rac.pipeline import Compiled
@@ -62,7 +63,7 @@ def properties_for(runs: Sequence[str], given: Sequence[str]) -> list[str | None
     out: list[str | None] = []
     for run in runs:
         beside = properties_beside(run)
-        out.append(str(beside) if beside.is_file() else None)
+        out.append(str(beside) if is_file(beside) else None)
     return out
 
 
@@ -92,6 +93,6 @@ def truth_for(runs: Sequence[str], explicit: str | None) -> GroundTruth | None:
         return load_truth(explicit)
     if len(runs) == 1:
         path = truth_path(Path(runs[0]))
-        if path.is_file():
+        if is_file(path):
             return load_truth(path)
     return None

@@ -20,7 +20,7 @@ from __future__ import annotations
 import csv
 import io
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -67,7 +67,7 @@ def properties_beside(run: str | Path) -> Path:
 def load_run(path: str, needs: Needs, properties: str | None) -> RunInputs:
     """Every input a model's observers take from one recorded run."""
     run = _read_topics(path, needs)
-    notes: list[str] = []
+    notes: list[str] = list(_missing_fields(path, run, needs))
     events: list[Event] = list(message_stream(run.topics, run.start))
     messages = len(events)
     if needs.diagnostics:
@@ -78,7 +78,15 @@ def load_run(path: str, needs: Needs, properties: str | None) -> RunInputs:
             )
         events.extend(statuses)
     if properties is not None:
-        events.extend(_properties(properties, run.start, needs.nodes))
+        samples, outside = _properties(properties, run.start, run.end - run.start, needs.nodes)
+        events.extend(samples)
+        if outside:
+            noun = "sample" if outside == 1 else "samples"
+            notes.append(
+                f"{properties}: {outside} {noun} outside the recording's "
+                f"{run.end - run.start:.1f} s (give or take {SAMPLE_SLACK_S:g} s), dropped: "
+                "is it this run's properties CSV?"
+            )
     elif needs.nodes:
         notes.append(
             f"{path}: no properties CSV; node and property observers stay silent "
@@ -86,7 +94,32 @@ def load_run(path: str, needs: Needs, properties: str | None) -> RunInputs:
         )
     events.sort(key=lambda e: e.t)
     duration = max((e.t for e in events), default=0.0)
+    first = min((e.t for e in events), default=0.0)
+    if duration - first > MAX_SPAN_S:
+        # Time passes for the observers in 0.1 s steps: a message stamped 1970 in a bag of
+        # today would have them step for fifty years.
+        message = (
+            f"{path}: its messages span {(duration - first) / 86400:,.0f} days "
+            f"(at most {MAX_SPAN_S / 86400:g}): a time stamp is far off"
+        )
+        hint = "was simulated time mixed with wall-clock time while recording?"
+        raise RacError([Diagnostic("RAC080", message, hint=hint)])
     return RunInputs(path, run.start, duration, tuple(events), messages, tuple(notes))
+
+
+def _missing_fields(path: str, run: Run, needs: Needs) -> Iterator[str]:
+    """A note per recorded topic whose messages lack fields the observers read (a model of
+    another message type, a misspelt field): those observers would stay silent unsaid."""
+    recorded = {t.name: t for t in run.topics}
+    for topic, fields in sorted(needs.topic_fields.items()):
+        data = recorded.get(topic)
+        missing = sorted(fields - set(data.fields)) if data is not None else []
+        if data is not None and missing:
+            yield (
+                f"{path}: {topic} is recorded as {data.msg_type}, which has no "
+                f"{', '.join(missing)}: the observers of {'it' if len(missing) == 1 else 'them'} "
+                "stay silent"
+            )
 
 
 def shifted(events: Iterable[Event], by: float) -> list[Event]:
@@ -143,12 +176,24 @@ def _level(value: object) -> int:
     return int(str(value))
 
 
-def _properties(path: str, start: float, nodes: frozenset[str]) -> list[Event]:
+# The longest run replay steps through (a week: about an hour of replay).
+MAX_SPAN_S = 7 * 86400.0
+# How far property samples may lie outside the recording's messages: the recorder samples
+# about once a second and starts and stops beside the bag, not with it.
+SAMPLE_SLACK_S = 60.0
+
+
+def _properties(
+    path: str, start: float, span: float, nodes: frozenset[str]
+) -> tuple[list[Event], int]:
+    """The samples of a properties CSV within the recording, and how many lie outside it
+    (a CSV of another run: replay would otherwise step the observers to its far times)."""
     rows = parse_samples(read_text(path), path)
     if not rows:
-        return []
+        return [], 0
     relative = rows[0][0] < start
-    samples = [(t if relative else t - start, n, c, m) for t, n, c, m in rows]
+    shifted_rows = [(t if relative else t - start, n, c, m) for t, n, c, m in rows]
+    samples = [r for r in shifted_rows if -SAMPLE_SLACK_S <= r[0] <= span + SAMPLE_SLACK_S]
     events: list[Event] = []
     for t, node, cpu, mem in samples:
         if cpu is not None:
@@ -156,7 +201,7 @@ def _properties(path: str, start: float, nodes: frozenset[str]) -> list[Event]:
         if mem is not None:
             events.append(PropertySample(t, node, "mem", mem))
     events.extend(liveness(samples, nodes))
-    return events
+    return events, len(shifted_rows) - len(samples)
 
 
 def liveness(

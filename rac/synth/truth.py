@@ -33,6 +33,7 @@ import yaml
 
 from rac.errors import Diagnostic, RacError, Severity, Span, did_you_mean
 from rac.ir import Model
+from rac.limits import yaml_limit_error
 from rac.synth.faults import FAULT_KINDS, Fault
 
 SUFFIX = ".faults.yaml"
@@ -243,6 +244,9 @@ def _fault(reader: _Reader, node: yaml.Node, duration: float | None) -> Injected
 
 def parse_truth(text: str, file: str) -> GroundTruth:
     """A faults file's truth; RacError (RAC085, RAC086) with every problem found."""
+    limit = yaml_limit_error(text, file)
+    if limit is not None:
+        raise limit
     try:
         root = yaml.compose(text, Loader=yaml.SafeLoader)
     except yaml.YAMLError as err:
@@ -282,11 +286,9 @@ def parse_truth(text: str, file: str) -> GroundTruth:
 
 def load_truth(path: str | Path) -> GroundTruth:
     """Read and parse a faults file (RAC085 when it cannot be read)."""
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise RacError([Diagnostic("RAC085", f"{path}: cannot read: {err}")]) from None
-    return parse_truth(text, str(path))
+    from rac.loader import read_text
+
+    return parse_truth(read_text(path, "RAC085"), str(path))
 
 
 def check_truth(
