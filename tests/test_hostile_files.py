@@ -214,6 +214,11 @@ def test_replay_refuses_a_recording_with_a_time_stamp_far_off(
     assert main(["replay", str(TEDUSAR), str(run), "-q"]) == 1
     err = capsys.readouterr().err
     assert "error[RAC080]" in err and "a time stamp is far off" in err
+    # learning would take its rates and windows from fifty years: the same error
+    assert main(["learn", str(run), "--base", str(TEDUSAR), "-o", str(tmp_path / "l.ram")]) == 1
+    err = capsys.readouterr().err
+    assert "error[RAC080]" in err and "a time stamp is far off" in err
+    assert not (tmp_path / "l.ram").exists()
 
 
 def test_a_recording_with_a_wrong_topic_type_says_what_broke(

@@ -106,6 +106,22 @@ def model_type_name(msgtype: str) -> str:
     return msgtype.replace("/msg/", "/")
 
 
+# The longest run racc reads (a week).  Replay steps the observers through it in 0.1 s
+# steps, and learning takes its rates and windows from it: one message stamped 1970 in a bag
+# of today would make that fifty years.
+MAX_SPAN_S = 7 * 86400.0
+
+
+def far_off_stamp(path: str, span: float) -> RacError:
+    """RAC080 for a recording whose time stamps span more than :data:`MAX_SPAN_S`."""
+    message = (
+        f"{path}: its messages span {span / 86400:,.0f} days "
+        f"(at most {MAX_SPAN_S / 86400:g}): a time stamp is far off"
+    )
+    hint = "was simulated time mixed with wall-clock time while recording?"
+    return RacError([Diagnostic("RAC080", message, hint=hint)])
+
+
 def _fail(path: str, why: str) -> RacError:
     hint = "a RUN is a ROS 1 .bag file or a ROS 2 bag directory (sqlite3 or mcap)"
     return RacError([Diagnostic("RAC080", f"{path}: cannot read the recording: {why}", hint=hint)])
@@ -224,6 +240,8 @@ def _read(
         raise _fail(path, "it holds no messages")
     start = min(float(t.times[0]) for t in data)
     end = max(float(t.times[-1]) for t in data)
+    if end - start > MAX_SPAN_S:
+        raise far_off_stamp(path, end - start)
     ros_version = 2 if reader.is2 else 1
     skipped = tuple(sorted({c.topic for c in reader.connections} - set(types)))
     return Run(path, ros_version, start, end, tuple(data), count, skipped)

@@ -28,7 +28,7 @@ import numpy as np
 
 from rac.errors import Diagnostic, RacError
 from rac.learn.fields import FieldSelector
-from rac.learn.recording import Run, message_stream, read_run
+from rac.learn.recording import MAX_SPAN_S, Run, far_off_stamp, message_stream, read_run
 from rac.loader import read_text
 from rac.observe.events import DeviceStatus, Event, NodeSample, PropertySample
 
@@ -95,15 +95,8 @@ def load_run(path: str, needs: Needs, properties: str | None) -> RunInputs:
     events.sort(key=lambda e: e.t)
     duration = max((e.t for e in events), default=0.0)
     first = min((e.t for e in events), default=0.0)
-    if duration - first > MAX_SPAN_S:
-        # Time passes for the observers in 0.1 s steps: a message stamped 1970 in a bag of
-        # today would have them step for fifty years.
-        message = (
-            f"{path}: its messages span {(duration - first) / 86400:,.0f} days "
-            f"(at most {MAX_SPAN_S / 86400:g}): a time stamp is far off"
-        )
-        hint = "was simulated time mixed with wall-clock time while recording?"
-        raise RacError([Diagnostic("RAC080", message, hint=hint)])
+    if duration - first > MAX_SPAN_S:  # the topics are bounded already: a /diagnostics stamp
+        raise far_off_stamp(path, duration - first)
     return RunInputs(path, run.start, duration, tuple(events), messages, tuple(notes))
 
 
@@ -176,8 +169,6 @@ def _level(value: object) -> int:
     return int(str(value))
 
 
-# The longest run replay steps through (a week: about an hour of replay).
-MAX_SPAN_S = 7 * 86400.0
 # How far property samples may lie outside the recording's messages: the recorder samples
 # about once a second and starts and stops beside the bag, not with it.
 SAMPLE_SLACK_S = 60.0
