@@ -55,8 +55,9 @@ def located(model: Model, diagnostics: tuple[Diagnostic, ...]) -> tuple[Diagnost
         return diagnostics
     from rac.interchange import located_model
 
-    again = located_model(model)
-    return diagnostics if again is None else validate(again)
+    with paused_gc():
+        again = located_model(model)
+        return diagnostics if again is None else validate(again)
 
 
 def _verify(compiled: Compiled) -> None:

@@ -16,7 +16,16 @@ from hypothesis import strategies as st
 
 from rac.cli import main
 from rac.errors import Diagnostic, RacError, Span
-from rac.interchange import JsonPath, _Locator, _where, dumps, model_to_json, parse_json
+from rac.interchange import (
+    JsonPath,
+    _in_order,
+    _Locator,
+    _SpanLookup,
+    _where,
+    dumps,
+    model_to_json,
+    parse_json,
+)
 from rac.ir import Name, Node
 from rac.loader import load_model
 from rac.pipeline import compile_model
@@ -175,11 +184,30 @@ def test_the_locator_finds_every_value(doc: Any, indent: int | None) -> None:
 
 
 @settings(max_examples=100, deadline=None)
-@given(JSON, st.sampled_from([None, 0, 2]))
-def test_the_full_locator_agrees_with_the_targeted_one(doc: Any, indent: int | None) -> None:
-    text = json.dumps(doc, indent=indent, ensure_ascii=False)
-    paths = _paths(doc)
-    assert _Locator(text, None).spans == _Locator(text, set(paths)).spans
+@given(JSON, st.sampled_from([None, 0, 2]), st.booleans())
+def test_the_full_locators_agree_with_the_targeted_one(
+    doc: Any, indent: int | None, ascii_only: bool
+) -> None:
+    """Walking every value, or pairing the decoded document with the text's strings and
+    brackets (what locating a semantic error uses), finds what the targeted walk finds."""
+    text = json.dumps(doc, indent=indent, ensure_ascii=ascii_only)
+    targeted = _Locator(text, set(_paths(doc))).spans
+    assert _Locator(text, None).spans == targeted
+    in_order = _in_order(text, json.loads(text))
+    assert in_order is not None
+    assert in_order == {
+        p: (s[0], s[1])
+        for p, s in targeted.items()
+        if text[s[0]] in '"[{'  # numbers, true, false and null are not paired
+    }
+
+
+def test_a_duplicated_key_leaves_the_pairing_to_the_walk() -> None:
+    text = '{"a": {"b": "x"}, "a": ["y"], "c": "z"}'
+    assert _in_order(text, json.loads(text)) is None
+    spans = _SpanLookup(text, json.loads(text), "t.json")
+    assert spans.offsets[("a", 0)] == (text.index('"y"'), text.index('"y"') + 3)
+    assert spans.offsets[("c",)] == (text.index('"z"'), text.index('"z"') + 3)
 
 
 # Semantic errors (validation, RAC010 and up) of a model read from JSON.
@@ -227,19 +255,25 @@ def test_a_valid_json_model_takes_the_fast_path(
     path.write_text(json.dumps(doc, indent=2))
     built: list[str] = []
 
-    class Spy(_Locator):
+    class Locator(_Locator):
         def __init__(self, text: str, wanted: set[JsonPath] | None) -> None:
             built.append("locator")
             super().__init__(text, wanted)
 
-    monkeypatch.setattr("rac.interchange._Locator", Spy)
+    class Lookup(_SpanLookup):
+        def __init__(self, text: str, doc: Any, path: str) -> None:
+            built.append("lookup")
+            super().__init__(text, doc, path)
+
+    monkeypatch.setattr("rac.interchange._Locator", Locator)
+    monkeypatch.setattr("rac.interchange._SpanLookup", Lookup)
     compiled = compile_model(load_model(path))
     assert [d.code for d in compiled.warnings] == ["RAC103"]
     assert compiled.warnings[0].span is None
     assert main(["check", "--quiet", str(path)]) == 0
     assert built == []
     assert main(["check", str(path)]) == 0
-    assert built == ["locator"]
+    assert built == ["lookup"]
     assert f"{path}:" in capsys.readouterr().err
 
 
