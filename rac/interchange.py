@@ -479,37 +479,37 @@ def _in_order(text: str, doc: Any) -> dict[JsonPath, tuple[int, int]] | None:
     tokens = _TOKEN.finditer(text)
     spans: dict[JsonPath, tuple[int, int]] = {}
 
-    def walk(value: Any, path: JsonPath) -> bool:
-        if isinstance(value, str):
-            token = next(tokens, None)
-            if token is None or text[token.start()] != '"':
-                return False
-            spans[path] = token.span()
-            return True
-        pairs: Iterable[tuple[str | int, Any]]
-        if isinstance(value, dict):
-            opening, pairs = "{", value.items()
-        elif isinstance(value, list):
-            opening, pairs = "[", enumerate(value)
-        else:
-            return True  # a number, true, false or null: nothing to pair
+    def walk(value: dict[str, Any] | list[Any], path: JsonPath) -> bool:
+        """Pair a list or object (its opening bracket is next) and everything in it."""
+        is_object = isinstance(value, dict)
         token = next(tokens, None)
-        if token is None or text[token.start()] != opening:
+        if token is None or text[token.start()] != ("{" if is_object else "["):
             return False
         start = token.start()
+        pairs: Iterable[tuple[str | int, Any]]
+        pairs = value.items() if isinstance(value, dict) else enumerate(value)
         for key, item in pairs:
-            if opening == "{":
-                name = next(tokens, None)
-                if name is None or text[name.start()] != '"':
+            if is_object and next(tokens, None) is None:  # the key
+                return False
+            if isinstance(item, str):  # most values: paired here, not in a call
+                token = next(tokens, None)
+                if token is None or text[token.start()] != '"':
                     return False
-            if not walk(item, (*path, key)):
+                at = (*path, key)
+                spans[at] = token.span()
+            elif isinstance(item, dict | list) and not walk(item, (*path, key)):
                 return False
         token = next(tokens, None)
-        if token is None or text[token.start()] != ("}" if opening == "{" else "]"):
+        if token is None or text[token.start()] != ("}" if is_object else "]"):
             return False
         spans[path] = (start, token.end())
         return True
 
+    if isinstance(doc, str):
+        token = next(tokens, None)
+        return None if token is None or next(tokens, None) else {(): token.span()}
+    if not isinstance(doc, dict | list):
+        return {}
     if not walk(doc, ()) or next(tokens, None) is not None:
         return None
     return spans
