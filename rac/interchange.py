@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import json
 import re
-from dataclasses import dataclass
+from bisect import bisect_right
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, replace
 from json.decoder import scanstring  # type: ignore[attr-defined]
 from typing import Any
 
@@ -32,6 +34,7 @@ from rac.limits import (
     depth_exceeds,
     number_problem,
 )
+from rac.perf import paused_gc
 
 FORMAT = "ram/1"
 
@@ -129,12 +132,32 @@ class _Problem:
     hint: str | None = None
 
 
-class _Reader:
-    """Checks the document's shape as it lowers it, collecting every problem."""
+# Where a JSON path's value is in the text, for a model read again to locate its diagnostics.
+SpanAt = Callable[[JsonPath], Span | None]
 
-    def __init__(self, path: str) -> None:
+
+class _Reader:
+    """Checks the document's shape as it lowers it, collecting every problem.
+
+    With ``span_at`` (only when a model's diagnostics are being located) every name, field
+    reference and declaration it builds carries the span of its JSON value; without it, the
+    IR is span-less and the reader does no more work than lowering.
+    """
+
+    def __init__(self, path: str, span_at: SpanAt | None = None) -> None:
         self.path = path
         self.problems: list[_Problem] = []
+        self.span_at = span_at
+
+    def at(self, where: JsonPath) -> Span | None:
+        return None if self.span_at is None else self.span_at(where)
+
+    def name(self, value: Any, where: JsonPath) -> Name:
+        """The name at ``where`` (a string, or "" after a RAC005)."""
+        if not isinstance(value, str):  # typed(), inlined: one call per name, as many as names
+            self.fail(where, "expected a string")
+            value = ""
+        return Name(value, None if self.span_at is None else self.span_at(where))
 
     def fail(self, where: JsonPath, message: str) -> None:
         self.problems.append(_Problem("RAC005", f"{_where(where)}: {message}", where))
@@ -168,9 +191,15 @@ class _Reader:
             return ()
         items = self.typed(value, list, "a list of names", where) or []
         out = []
-        for i, item in enumerate(items):
-            if self.typed(item, str, "a name (string)", (*where, i)) is not None:
-                out.append(Name(item))
+        span_at = self.span_at
+        if span_at is None:  # the fast read: nothing more per name than lowering it
+            for i, item in enumerate(items):
+                if self.typed(item, str, "a name (string)", (*where, i)) is not None:
+                    out.append(Name(item))
+        else:
+            for i, item in enumerate(items):
+                if self.typed(item, str, "a name (string)", (*where, i)) is not None:
+                    out.append(Name(item, span_at((*where, i))))
         return tuple(out)
 
     def number(self, value: Any, where: JsonPath) -> float | None:
@@ -201,12 +230,12 @@ class _Reader:
         d = self.obj(doc, "model", ())
         if d.get("format", FORMAT) != FORMAT:
             self.fail(("format",), f'expected "{FORMAT}", got {d.get("format")!r}')
-        name = self.typed(d.get("name", ""), str, "a string", ("name",)) or ""
+        name = self.name(d.get("name", ""), ("name",))
         lists = {
             k: self.typed(d.get(k) or [], list, "a list", (k,)) or [] for k in _KEYS["model"][1]
         }
         return Model(
-            name=Name(name),
+            name=name,
             hardware=tuple(
                 self.hardware(h, ("hardware", i)) for i, h in enumerate(lists["hardware"])
             ),
@@ -225,9 +254,10 @@ class _Reader:
         if self.typed(switchable, bool, "true or false", (*where, "switchable")) is None:
             switchable = False
         return Hardware(
-            Name(self.typed(h.get("name", ""), str, "a string", (*where, "name")) or ""),
+            self.name(h.get("name", ""), (*where, "name")),
             switchable=switchable,
             channel=self.integer(h.get("channel"), (*where, "channel")),
+            span=None if self.span_at is None else self.span_at(where),
         )
 
     def topic(self, value: Any, where: JsonPath) -> Topic:
@@ -237,7 +267,7 @@ class _Reader:
             msg_type = self.typed(msg_type, str, "a string", (*where, "type"))
         mismatch = self.integer(t.get("mismatch_threshold"), (*where, "mismatch_threshold"))
         return Topic(
-            Name(self.typed(t.get("name", ""), str, "a string", (*where, "name")) or ""),
+            self.name(t.get("name", ""), (*where, "name")),
             msg_type=msg_type or None,
             fields=self.names(t.get("fields"), (*where, "fields")),
             rate_hz=self.number(t.get("rate_hz"), (*where, "rate_hz")),
@@ -246,6 +276,7 @@ class _Reader:
             ),
             window_s=self.number(t.get("window_s"), (*where, "window_s")),
             mismatch_threshold=mismatch,
+            span=None if self.span_at is None else self.span_at(where),
         )
 
     def node(self, value: Any, where: JsonPath) -> Node:
@@ -254,7 +285,7 @@ class _Reader:
         limits = self.obj(n.get("limits") or {}, "limits", (*where, "limits"))
         mem = self.number(limits.get("mem"), (*where, "limits", "mem"))
         return Node(
-            Name(self.typed(n.get("name", ""), str, "a string", (*where, "name")) or ""),
+            self.name(n.get("name", ""), (*where, "name")),
             drives=self.names(n.get("drives"), (*where, "drives")),
             subscribes=self.names(n.get("subscribes"), (*where, "subscribes")),
             publishes=tuple(
@@ -263,18 +294,20 @@ class _Reader:
             limits=Limits(
                 cpu=self.number(limits.get("cpu"), (*where, "limits", "cpu")),
                 mem=round(mem) if mem is not None else None,
+                span=None if self.span_at is None else self.span_at((*where, "limits")),
             ),
             diagnostics=self.names(n.get("diagnostics"), (*where, "diagnostics")),
+            span=None if self.span_at is None else self.span_at(where),
         )
 
     def publication(self, value: Any, where: JsonPath) -> Publication:
         p = self.obj(value, "publication", where)
-        topic = self.typed(p.get("topic", ""), str, "a string", (*where, "topic")) or ""
-        return Publication(Name(topic), self.names(p.get("affected_by"), (*where, "affected_by")))
+        topic = self.name(p.get("topic", ""), (*where, "topic"))
+        return Publication(topic, self.names(p.get("affected_by"), (*where, "affected_by")))
 
     def field_ref(self, value: Any, where: JsonPath) -> FieldRef:
         text = self.typed(value, str, "a field reference 'TOPIC.FIELD'", where) or ""
-        ref = FieldRef.parse(text)
+        ref = FieldRef.parse(text, self.at(where))
         if text and ("." not in text or ref.text != text or "(" in ref.path or ")" in ref.path):
             self.fail(where, f"'{text}' is not TOPIC.FIELD or I(TOPIC.FIELD)")
         return ref
@@ -284,7 +317,11 @@ class _Reader:
         if len(pair) != 2:
             self.fail(where, "expected exactly two field references")
             pair = [*pair, "", ""][:2]
-        return Related(self.field_ref(pair[0], (*where, 0)), self.field_ref(pair[1], (*where, 1)))
+        return Related(
+            self.field_ref(pair[0], (*where, 0)),
+            self.field_ref(pair[1], (*where, 1)),
+            span=self.at(where),
+        )
 
     def interval(self, value: Any, where: JsonPath) -> Interval:
         v = self.obj(value, "interval", where)
@@ -292,6 +329,7 @@ class _Reader:
             self.field_ref(v.get("a", ""), (*where, "a")),
             self.field_ref(v.get("b", ""), (*where, "b")),
             self.number(v.get("max_diff", 0.0), (*where, "max_diff")) or 0.0,
+            span=self.at(where),
         )
 
 
@@ -329,7 +367,39 @@ def parse_json(text: str, path: str = "<json>") -> Model:
     model = reader.model(doc)
     if reader.problems:
         raise RacError(_located(reader.problems, text, path), text)
-    return model
+    # The text rides along (as a .ram model's does) so that diagnostics found later can be
+    # located by reading it again: see located_model.
+    return replace(model, source=text)
+
+
+def from_json(model: Model) -> bool:
+    """Whether ``model`` was read from a ``ram/1`` text, which it carries without spans."""
+    return (
+        model.source is not None
+        and model.name.span is None
+        and _OPENING.match(model.source) is not None
+    )
+
+
+def located_model(model: Model) -> Model | None:
+    """``model`` read again from its ``ram/1`` text, every name and declaration with a span.
+
+    The slow, position-recording read (a walk of the whole text) that a model read from
+    JSON pays only when one of its diagnostics is shown.  None when the model did not come
+    from JSON, or no longer is what its text says (a model derived from a loaded one keeps
+    the text it was read from).
+    """
+    if not from_json(model):
+        return None
+    assert model.source is not None
+    text, path = model.source, model.path
+    with paused_gc():  # hundreds of thousands of acyclic offsets and spans (rac.perf)
+        doc = json.loads(text, parse_int=_parse_int)
+        reader = _Reader(path, _SpanLookup(text, doc, path).at)
+        located = reader.model(doc)
+        if reader.problems or located != model:
+            return None
+        return replace(located, source=text)
 
 
 def _located(problems: list[_Problem], text: str, path: str) -> list[Diagnostic]:
@@ -372,7 +442,81 @@ def _line_columns(text: str, offsets: list[int]) -> dict[int, tuple[int, int]]:
     return places
 
 
+class _SpanLookup:
+    """The span of every string, list and object of a text the C decoder has accepted (as
+    ``doc``), by JSON path."""
+
+    def __init__(self, text: str, doc: Any, path: str) -> None:
+        self.path = path
+        found = _in_order(text, doc)
+        if found is None:  # a duplicated key: only a walk of the text knows which one counts
+            found = {p: (s[0], s[1]) for p, s in _Locator(text, None).spans.items()}
+        self.offsets = found
+        self.line_starts = [0, *(m.end() for m in re.finditer("\n", text))]
+
+    def at(self, where: JsonPath) -> Span | None:
+        found = self.offsets.get(where)
+        if found is None:
+            return None
+        start, end = found
+        starts = self.line_starts
+        line = bisect_right(starts, start)
+        end_line = bisect_right(starts, end, line - 1)
+        return Span(
+            self.path, line, start - starts[line - 1] + 1, end_line, end - starts[end_line - 1] + 1
+        )
+
+
+# Outside its strings, a JSON text holds no quote; inside them, no bracket counts.
+_TOKEN = re.compile(r'"[^"\\]*(?:\\.[^"\\]*)*"|[\[\]{}]')
+
+
+def _in_order(text: str, doc: Any) -> dict[JsonPath, tuple[int, int]] | None:
+    """Each string's, list's and object's offsets, by pairing the decoded document, walked in
+    file order, with the strings and brackets of the text found by one regular expression
+    (several times faster than :class:`_Locator` walking every value).  None when the two
+    do not pair up: a duplicated key, of which the decoder kept one."""
+    tokens = _TOKEN.finditer(text)
+    spans: dict[JsonPath, tuple[int, int]] = {}
+
+    def walk(value: dict[str, Any] | list[Any], path: JsonPath) -> bool:
+        """Pair a list or object (its opening bracket is next) and everything in it."""
+        is_object = isinstance(value, dict)
+        token = next(tokens, None)
+        if token is None or text[token.start()] != ("{" if is_object else "["):
+            return False
+        start = token.start()
+        pairs: Iterable[tuple[str | int, Any]]
+        pairs = value.items() if isinstance(value, dict) else enumerate(value)
+        for key, item in pairs:
+            if is_object and next(tokens, None) is None:  # the key
+                return False
+            if isinstance(item, str):  # most values: paired here, not in a call
+                token = next(tokens, None)
+                if token is None or text[token.start()] != '"':
+                    return False
+                at = (*path, key)
+                spans[at] = token.span()
+            elif isinstance(item, dict | list) and not walk(item, (*path, key)):
+                return False
+        token = next(tokens, None)
+        if token is None or text[token.start()] != ("}" if is_object else "]"):
+            return False
+        spans[path] = (start, token.end())
+        return True
+
+    if isinstance(doc, str):
+        token = next(tokens, None)
+        return None if token is None or next(tokens, None) else {(): token.span()}
+    if not isinstance(doc, dict | list):
+        return {}
+    if not walk(doc, ()) or next(tokens, None) is not None:
+        return None
+    return spans
+
+
 _SPACE = re.compile(r"[ \t\n\r]*")
+_OPENING = re.compile(r"[ \t\n\r]*\{")
 
 
 class _Locator:
@@ -381,13 +525,15 @@ class _Locator:
     ``spans`` maps each wanted path, and every path above one, to its value's start and end
     offsets and its key's (-1, -1 for a list item or the document).  Containers on the way to
     a wanted path are walked here; everything else is skipped by the C scanner.  A duplicated
-    key keeps its last occurrence, the one the decoder kept.
+    key keeps its last occurrence, the one the decoder kept.  ``wanted=None`` wants every path:
+    the whole document is walked.
     """
 
-    def __init__(self, text: str, wanted: set[JsonPath]) -> None:
+    def __init__(self, text: str, wanted: set[JsonPath] | None) -> None:
         self.text = text
-        self.wanted = {p[:n] for p in wanted for n in range(len(p) + 1)}
-        self.above = {p[:n] for p in wanted for n in range(len(p))}
+        self.everything = wanted is None
+        self.wanted = {p[:n] for p in wanted or () for n in range(len(p) + 1)}
+        self.above = {p[:n] for p in wanted or () for n in range(len(p))}
         self.skip = json.JSONDecoder(parse_int=lambda _: 0).raw_decode
         self.spans: dict[JsonPath, tuple[int, int, int, int]] = {}
         self.value(self.space(0), (), -1, -1)
@@ -397,13 +543,16 @@ class _Locator:
 
     def value(self, at: int, path: JsonPath, key_start: int, key_end: int) -> int:
         opening = self.text[at]
-        if path in self.above and opening == "{":
+        walk = self.everything or path in self.above
+        if walk and opening == "{":
             end = self.object(at, path)
-        elif path in self.above and opening == "[":
+        elif walk and opening == "[":
             end = self.array(at, path)
+        elif opening == '"':
+            end = scanstring(self.text, at + 1)[1]
         else:
             end = self.skip(self.text, at)[1]
-        if path in self.wanted:
+        if self.everything or path in self.wanted:
             self.spans[path] = (at, end, key_start, key_end)
         return end
 

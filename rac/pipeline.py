@@ -40,8 +40,24 @@ def check_model(model: Model) -> tuple[Diagnostic, ...]:
     """Validate; raise with every error (warnings included) when there is one."""
     diagnostics = validate(model)
     if any(d.is_error for d in diagnostics):
-        raise RacError(diagnostics, model.source)
+        raise RacError(located(model, diagnostics), model.source)
     return diagnostics
+
+
+def located(model: Model, diagnostics: tuple[Diagnostic, ...]) -> tuple[Diagnostic, ...]:
+    """``diagnostics`` of ``model`` with spans, when they lack them because it came from JSON.
+
+    A model read from ``ram/1`` has no spans (its fast read stays on the C decoder), so its
+    diagnostics are found again on the model read once more with spans: only when some are
+    shown, never on the way of a valid model.
+    """
+    if all(d.span is not None for d in diagnostics):
+        return diagnostics
+    from rac.interchange import located_model
+
+    with paused_gc():
+        again = located_model(model)
+        return diagnostics if again is None else validate(again)
 
 
 def _verify(compiled: Compiled) -> None:

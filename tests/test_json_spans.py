@@ -1,10 +1,12 @@
 """Every structure error of a ``ram/1`` document is located: the span covers the bad value,
-the unknown key, or the object that lacks a key (RAC005, and RAC007 for numbers)."""
+the unknown key, or the object that lacks a key (RAC005, and RAC007 for numbers).  So is
+every semantic error (validation's, RAC010 and up), on a second read with spans."""
 
 from __future__ import annotations
 
 import json
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -12,9 +14,21 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from rac.cli import main
 from rac.errors import Diagnostic, RacError, Span
-from rac.interchange import _Locator, _where, dumps, model_to_json, parse_json
+from rac.interchange import (
+    JsonPath,
+    _in_order,
+    _Locator,
+    _SpanLookup,
+    _where,
+    dumps,
+    model_to_json,
+    parse_json,
+)
+from rac.ir import Name, Node
 from rac.loader import load_model
+from rac.pipeline import compile_model
 
 TEDUSAR = Path(__file__).resolve().parent.parent / "models" / "tedusar.ram"
 
@@ -167,3 +181,108 @@ def test_the_locator_finds_every_value(doc: Any, indent: int | None) -> None:
         assert json.loads(text[start:end]) == value, _where(path)
         if path and isinstance(path[-1], str):
             assert json.loads(text[key_start:key_end]) == path[-1]
+
+
+@settings(max_examples=100, deadline=None)
+@given(JSON, st.sampled_from([None, 0, 2]), st.booleans())
+def test_the_full_locators_agree_with_the_targeted_one(
+    doc: Any, indent: int | None, ascii_only: bool
+) -> None:
+    """Walking every value, or pairing the decoded document with the text's strings and
+    brackets (what locating a semantic error uses), finds what the targeted walk finds."""
+    text = json.dumps(doc, indent=indent, ensure_ascii=ascii_only)
+    targeted = _Locator(text, set(_paths(doc))).spans
+    assert _Locator(text, None).spans == targeted
+    in_order = _in_order(text, json.loads(text))
+    assert in_order is not None
+    assert in_order == {
+        p: (s[0], s[1])
+        for p, s in targeted.items()
+        if text[s[0]] in '"[{'  # numbers, true, false and null are not paired
+    }
+
+
+def test_a_duplicated_key_leaves_the_pairing_to_the_walk() -> None:
+    text = '{"a": {"b": "x"}, "a": ["y"], "c": "z"}'
+    assert _in_order(text, json.loads(text)) is None
+    spans = _SpanLookup(text, json.loads(text), "t.json")
+    assert spans.offsets[("a", 0)] == (text.index('"y"'), text.index('"y"') + 3)
+    assert spans.offsets[("c",)] == (text.index('"z"'), text.index('"z"') + 3)
+
+
+# Semantic errors (validation, RAC010 and up) of a model read from JSON.
+
+
+def _semantic_errors(text: str) -> RacError:
+    with pytest.raises(RacError) as info:
+        compile_model(parse_json(text, "t.json"))
+    return info.value
+
+
+@pytest.mark.parametrize(
+    ("change", "covered", "code"),
+    [
+        (lambda d: d["nodes"][2]["subscribes"].append("/cmd_vell"), '"/cmd_vell"', "RAC012"),
+        (lambda d: d["nodes"][0]["drives"].append("jagaur"), '"jagaur"', "RAC011"),
+        (lambda d: d["nodes"].append({"name": d["nodes"][1]["name"]}), None, "RAC010"),
+        (lambda d: d["related"][0].__setitem__(1, "/pose.yw"), '"/pose.yw"', "RAC014"),
+    ],
+)
+def test_a_semantic_error_is_spanned(
+    change: Callable[[dict[str, Any]], Any], covered: str | None, code: str
+) -> None:
+    doc = _doc()
+    change(doc)
+    text = json.dumps(doc, indent=2)
+    err = _semantic_errors(text)
+    assert err.source == text
+    (diag,) = [d for d in err.diagnostics if d.is_error]
+    assert diag.code == code and diag.span is not None and diag.span.file == "t.json"
+    expected = covered or json.dumps(doc["nodes"][1]["name"])
+    assert spanned(text, diag.span) == expected
+    assert f"{diag.span.line:>4} | " in err.render()
+    assert all(d.span is not None for d in err.diagnostics)
+
+
+def test_a_valid_json_model_takes_the_fast_path(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """No second, position-recording read for a valid model, nor for one whose warnings are
+    not shown; a shown warning is located."""
+    doc = _doc()
+    doc["topics"].append({"name": "/unused"})  # RAC103, a warning
+    path = tmp_path / "m.json"
+    path.write_text(json.dumps(doc, indent=2))
+    built: list[str] = []
+
+    class Locator(_Locator):
+        def __init__(self, text: str, wanted: set[JsonPath] | None) -> None:
+            built.append("locator")
+            super().__init__(text, wanted)
+
+    class Lookup(_SpanLookup):
+        def __init__(self, text: str, doc: Any, path: str) -> None:
+            built.append("lookup")
+            super().__init__(text, doc, path)
+
+    monkeypatch.setattr("rac.interchange._Locator", Locator)
+    monkeypatch.setattr("rac.interchange._SpanLookup", Lookup)
+    compiled = compile_model(load_model(path))
+    assert [d.code for d in compiled.warnings] == ["RAC103"]
+    assert compiled.warnings[0].span is None
+    assert main(["check", "--quiet", str(path)]) == 0
+    assert built == []
+    assert main(["check", str(path)]) == 0
+    assert built == ["lookup"]
+    assert f"{path}:" in capsys.readouterr().err
+
+
+def test_a_model_derived_from_json_is_not_located_from_the_text() -> None:
+    """The text no longer says what the model is: its diagnostics stay without spans rather
+    than point at the wrong place."""
+    model = parse_json(dumps(load_model(TEDUSAR)), "t.json")
+    extra = Node(Name("extra"), subscribes=(Name("/nowhere"),))
+    with pytest.raises(RacError) as info:
+        compile_model(replace(model, nodes=(*model.nodes, extra)))
+    assert [d.code for d in info.value.diagnostics if d.is_error] == ["RAC012"]
+    assert all(d.span is None for d in info.value.diagnostics)
