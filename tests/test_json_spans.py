@@ -286,3 +286,23 @@ def test_a_model_derived_from_json_is_not_located_from_the_text() -> None:
         compile_model(replace(model, nodes=(*model.nodes, extra)))
     assert [d.code for d in info.value.diagnostics if d.is_error] == ["RAC012"]
     assert all(d.span is None for d in info.value.diagnostics)
+
+
+def test_warnings_of_a_large_json_model_are_shown_unlocated_but_errors_located(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Locating re-reads the whole text: for a warning of a large model that is not worth
+    seconds of every compile; for an error it is."""
+    monkeypatch.setattr("rac.pipeline.WARNINGS_LOCATED_UP_TO", 100)  # the file is larger
+    doc = _doc()
+    doc["topics"].append({"name": "/unused"})  # RAC103, a warning
+    path = tmp_path / "m.json"
+    path.write_text(json.dumps(doc, indent=2))
+    assert main(["check", str(path)]) == 0
+    err = capsys.readouterr().err
+    assert "warning[RAC103]" in err and f"{path}:" not in err
+    doc["nodes"].append({"name": "extra", "subscribes": ["/nowhere"]})  # RAC012, an error
+    path.write_text(json.dumps(doc, indent=2))
+    assert main(["check", str(path)]) == 1
+    err = capsys.readouterr().err
+    assert f"{path}:" in err and "error[RAC012]" in err

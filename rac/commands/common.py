@@ -171,12 +171,13 @@ def checked_truth(
 def load_and_compile(path: str, *, quiet: bool = False) -> Compiled:
     """Load a .ram/.json model, validate and derive; warnings go to stderr."""
     from rac.loader import load_model
-    from rac.pipeline import compile_model, located
+    from rac.pipeline import WARNINGS_LOCATED_UP_TO, compile_model, located
 
     model = load_model(path)
     compiled = compile_model(model)
     if not quiet and compiled.warnings:
-        print_warnings(located(model, compiled.warnings), model.source)
+        shown = located(model, compiled.warnings, up_to=WARNINGS_LOCATED_UP_TO)
+        print_warnings(shown, model.source)
     return compiled
 
 
