@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import os
+import stat
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, BinaryIO
 
 import yaml
 
@@ -21,10 +23,8 @@ def read_text(path: str | Path, code: str = "RAC004") -> str:
     mark dropped, at most :data:`MAX_INPUT_BYTES`; ``code`` (RAC004 unless the caller has its
     own) when it cannot be read, with the line and column of a byte that is not UTF-8."""
     try:
-        # One byte past the limit tells an oversized file (or /dev/zero, or a bag given as a
-        # model by mistake) without holding all of it in memory.
         with Path(path).open("rb") as handle:
-            data = handle.read(MAX_INPUT_BYTES + 1)
+            data = _read_bounded(handle)
     except FileNotFoundError:
         raise RacError([Diagnostic(code, f"{path}: no such file")]) from None
     except IsADirectoryError:
@@ -41,6 +41,25 @@ def read_text(path: str | Path, code: str = "RAC004") -> str:
         raise RacError([_not_utf8(str(path), data, err, code)], shown) from None
     # Editors on Windows start UTF-8 files with a byte-order mark: it is no part of the text.
     return text.removeprefix("\ufeff")
+
+
+def _read_bounded(handle: BinaryIO) -> bytes:
+    """The file's bytes, or one chunk past :data:`MAX_INPUT_BYTES` of them: enough to tell an
+    oversized file (or /dev/zero, or a bag given as a model by mistake) without holding all
+    of it.  A regular file is read in one call of its own size: ``read(limit + 1)`` would
+    allocate the whole limit for every small file."""
+    status = os.fstat(handle.fileno())
+    if stat.S_ISREG(status.st_mode) and status.st_size <= MAX_INPUT_BYTES:
+        return handle.read()  # a file growing meanwhile is checked below like any other
+    chunks: list[bytes] = []
+    held = 0
+    while held <= MAX_INPUT_BYTES:
+        chunk = handle.read(1 << 20)
+        if not chunk:
+            break
+        chunks.append(chunk)
+        held += len(chunk)
+    return b"".join(chunks)
 
 
 def is_file(path: Path) -> bool:

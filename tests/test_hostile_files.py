@@ -59,6 +59,31 @@ def test_an_oversized_input_is_refused_unread(
     assert "error[RAC009]: /dev/zero: larger than 1 MiB" in capsys.readouterr().err
 
 
+def test_an_oversized_regular_file_is_refused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setattr(loader, "MAX_INPUT_BYTES", 1000)
+    big = tmp_path / "big.ram"
+    big.write_text("robot r\n" + "# a comment line\n" * 100, encoding="utf-8")
+    assert main(["check", str(big)]) == 1
+    assert f"error[RAC009]: {big}: larger than" in capsys.readouterr().err
+
+
+def test_a_small_file_is_read_without_allocating_the_limit(tmp_path: Path) -> None:
+    """``read(limit + 1)`` allocated the whole 256 MiB limit for every file it read."""
+    import tracemalloc
+
+    small = tmp_path / "small.ram"
+    small.write_text(Path(TEDUSAR).read_text(encoding="utf-8"), encoding="utf-8")
+    tracemalloc.start()
+    try:
+        loader.read_text(small)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 1 << 20
+
+
 @pytest.mark.parametrize("text", [TOO_DEEP, LAUGHS], ids=["too_deep", "aliases"])
 def test_yaml_files_read_within_the_limits(
     text: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
