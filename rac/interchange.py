@@ -166,6 +166,9 @@ class _Reader:
         if not isinstance(value, dict):
             self.fail(where, f"expected an object for {kind}")
             return {}
+        for key in getattr(value, "given_twice", ()):
+            message = f"{_where(where)}: key '{key}' given twice (only the last one would count)"
+            self.problems.append(_Problem("RAC005", message, (*where, key), True))
         required, optional = _KEYS[kind]
         for key in sorted(required - value.keys()):
             self.fail(where, f"missing key '{key}'")
@@ -339,6 +342,25 @@ class _LongNumber(int):
     digits: int
 
 
+class _KeysGivenTwice(dict[str, Any]):
+    """A JSON object in which a key occurs more than once, and those keys.  The decoder keeps
+    the last value of such a key, silently losing the others (two ``"nodes"`` lists: the
+    first robot half gone), so the reader reports them."""
+
+    given_twice: tuple[str, ...] = ()
+
+
+def _object(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """``object_pairs_hook``: a dict, or a :class:`_KeysGivenTwice` when a key repeats."""
+    found = dict(pairs)
+    if len(found) == len(pairs):
+        return found
+    twice = _KeysGivenTwice(found)
+    keys = [key for key, _ in pairs]
+    twice.given_twice = tuple(sorted({k for k in keys if keys.count(k) > 1}))
+    return twice
+
+
 def _parse_int(text: str) -> int:
     if len(text) <= MAX_NUMBER_CHARS:
         return int(text)
@@ -354,7 +376,7 @@ def parse_json(text: str, path: str = "<json>") -> Model:
         raise RacError([Diagnostic("RAC009", message, Span(path, 1, 1, 1, 2))])
     too_deep = False
     try:
-        doc = json.loads(text, parse_int=_parse_int)
+        doc = json.loads(text, parse_int=_parse_int, object_pairs_hook=_object)
     except json.JSONDecodeError as err:
         span = Span(path, err.lineno, err.colno, err.lineno, err.colno + 1)
         raise RacError([Diagnostic("RAC005", f"invalid JSON: {err.msg}", span)], text) from None

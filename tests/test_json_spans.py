@@ -121,11 +121,18 @@ def test_errors_come_in_file_order() -> None:
     assert places == sorted(places)
 
 
-def test_a_duplicated_key_points_at_the_value_the_decoder_kept() -> None:
+def test_a_duplicated_key_is_an_error_at_the_key_the_decoder_kept() -> None:
+    """The decoder keeps the last value: a second "nodes" list silently dropped the first."""
     text = '{"format": "ram/1", "name": "r",\n "nodes": [{"name": "n", "name": 5}]}'
+    twice, typed = errors_of(text)
+    assert twice.message == "nodes[0]: key 'name' given twice (only the last one would count)"
+    assert (twice.span.line, twice.span.column) == (2, 26)  # type: ignore[union-attr]
+    assert typed.message == "nodes[0].name: expected a string"
+    assert (typed.span.line, typed.span.column) == (2, 34)  # type: ignore[union-attr]
+    text = '{"format": "ram/1", "name": "r", "nodes": [{"name": "a"}], "nodes": []}'
     (diag,) = errors_of(text)
-    assert diag.message == "nodes[0].name: expected a string"
-    assert (diag.span.line, diag.span.column) == (2, 34)  # type: ignore[union-attr]
+    assert diag.message == "document: key 'nodes' given twice (only the last one would count)"
+    assert diag.span.column == text.rindex('"nodes"') + 1  # type: ignore[union-attr]
 
 
 def test_columns_count_characters() -> None:
