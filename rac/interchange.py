@@ -148,6 +148,7 @@ class _Reader:
         self.path = path
         self.problems: list[_Problem] = []
         self.span_at = span_at
+        self.keys = 0  # the keys of every object read, to tell a key given twice
 
     def at(self, where: JsonPath) -> Span | None:
         return None if self.span_at is None else self.span_at(where)
@@ -166,6 +167,7 @@ class _Reader:
         if not isinstance(value, dict):
             self.fail(where, f"expected an object for {kind}")
             return {}
+        self.keys += len(value)
         for key in getattr(value, "given_twice", ()):
             message = f"{_where(where)}: key '{key}' given twice (only the last one would count)"
             self.problems.append(_Problem("RAC005", message, (*where, key), True))
@@ -374,9 +376,28 @@ def parse_json(text: str, path: str = "<json>") -> Model:
     if len(text) > MAX_DOCUMENT_BYTES:
         message = f"the document is {len(text):,} characters long (at most {MAX_DOCUMENT_BYTES:,})"
         raise RacError([Diagnostic("RAC009", message, Span(path, 1, 1, 1, 2))])
+    reader = _Reader(path)
+    model = reader.model(_decoded(text, path, exact=False))
+    if text.count(":") != reader.keys:
+        # Each key of the text has one colon after it.  More colons than keys read: a colon
+        # in a string, or a key given twice, whose first value the C decoder dropped without a
+        # word.  Read again, telling every object with a repeated key (slower: a Python call
+        # per object, paid by such documents only).
+        reader = _Reader(path)
+        model = reader.model(_decoded(text, path, exact=True))
+    if reader.problems:
+        raise RacError(_located(reader.problems, text, path), text)
+    # The text rides along (as a .ram model's does) so that diagnostics found later can be
+    # located by reading it again: see located_model.
+    return replace(model, source=text)
+
+
+def _decoded(text: str, path: str, *, exact: bool) -> Any:
+    """The JSON document of ``text``; ``exact``: objects with a repeated key tell it."""
+    hook = _object if exact else None
     too_deep = False
     try:
-        doc = json.loads(text, parse_int=_parse_int, object_pairs_hook=_object)
+        doc = json.loads(text, parse_int=_parse_int, object_pairs_hook=hook)
     except json.JSONDecodeError as err:
         span = Span(path, err.lineno, err.colno, err.lineno, err.colno + 1)
         raise RacError([Diagnostic("RAC005", f"invalid JSON: {err.msg}", span)], text) from None
@@ -385,13 +406,7 @@ def parse_json(text: str, path: str = "<json>") -> Model:
     if too_deep or depth_exceeds(doc):
         message = f"lists and objects nest more than {MAX_DEPTH} deep"
         raise RacError([Diagnostic("RAC009", message, Span(path, 1, 1, 1, 2))])
-    reader = _Reader(path)
-    model = reader.model(doc)
-    if reader.problems:
-        raise RacError(_located(reader.problems, text, path), text)
-    # The text rides along (as a .ram model's does) so that diagnostics found later can be
-    # located by reading it again: see located_model.
-    return replace(model, source=text)
+    return doc
 
 
 def from_json(model: Model) -> bool:

@@ -135,6 +135,31 @@ def test_a_duplicated_key_is_an_error_at_the_key_the_decoder_kept() -> None:
     assert diag.span.column == text.rindex('"nodes"') + 1  # type: ignore[union-attr]
 
 
+def test_repeated_keys_are_looked_for_only_when_the_colons_do_not_add_up(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A valid document is decoded once, without a Python call per object; a colon inside a
+    string sends it to the exact read, which finds a repeated key beside it, or none."""
+    import rac.interchange as interchange
+
+    calls: list[int] = []
+    exact = interchange._object
+
+    def counting(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+        calls.append(len(pairs))
+        return exact(pairs)
+
+    monkeypatch.setattr(interchange, "_object", counting)
+    parse_json(dumps(load_model(TEDUSAR)), "t.json")
+    assert calls == []
+    colon = '{"format": "ram/1", "name": "r", "topics": [{"name": "/a", "type": "x/Y:z"}]}'
+    parse_json(colon, "t.json")  # valid, on the exact path
+    assert calls
+    both = colon.replace('"type"', '"name": "/b", "type"')
+    (diag,) = errors_of(both)
+    assert diag.message == "topics[0]: key 'name' given twice (only the last one would count)"
+
+
 def test_columns_count_characters() -> None:
     text = '{"format": "ram/1", "name": "r", "topics": [{"name": "/é→", "rate_hz": "x"}]}'
     (diag,) = errors_of(text)
