@@ -4,6 +4,7 @@ ROS 2 bags, the timeline file, the plot, and the errors a user meets."""
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import foreign_bag
@@ -150,3 +151,35 @@ def _has_matplotlib() -> bool:
     except ImportError:
         return False
     return True
+
+
+def test_the_plot_goes_to_the_file_named_in_the_format_its_suffix_names(
+    short_pioneer_run: Path, tmp_path: Path
+) -> None:
+    """matplotlib added ``.png`` to a name without a suffix: ``--plot timeline`` wrote
+    ``timeline.png`` and said nothing."""
+    bare, svg = tmp_path / "timeline", tmp_path / "timeline.svg"
+    for out in (bare, svg):
+        assert main(["replay", PIONEER, str(short_pioneer_run), "--plot", str(out), "-q"]) == 0
+    assert bare.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not (tmp_path / "timeline.png").exists()
+    assert b"<svg" in svg.read_bytes()[:1000]
+
+
+def test_plot_without_matplotlib_fails_before_the_replay(
+    short_pioneer_run: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    import rac.replay.engine
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib: ImportError
+
+    def no_replay(*args: object, **kwargs: object) -> None:
+        raise AssertionError("replayed before finding matplotlib missing")
+
+    monkeypatch.setattr(rac.replay.engine, "replay", no_replay)
+    argv = ["replay", PIONEER, str(short_pioneer_run), "--plot", str(tmp_path / "t.png")]
+    assert main(argv) == 1
+    assert "error[RAC055]: --plot needs matplotlib" in capsys.readouterr().err

@@ -101,7 +101,12 @@ def register(sub: Any) -> None:
     )
     add_replay_options(parser)
     parser.add_argument("-o", "--output", metavar="FILE", help="write the timeline (JSON lines)")
-    parser.add_argument("--plot", metavar="PNG", help="draw the timeline")
+    parser.add_argument(
+        "--plot",
+        metavar="FILE",
+        help="draw the timeline to FILE, in the format its suffix names (.png, .svg, .pdf; "
+        "PNG for any other)",
+    )
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
     parser.set_defaults(run=run)
 
@@ -110,9 +115,11 @@ def run(args: argparse.Namespace) -> int:
     from rac.evaluate.score import score_run
     from rac.replay.engine import ReplayOptions, replay
     from rac.replay.load import load_runs, needs_of, properties_for, replayable, truth_for
-    from rac.replay.plot import draw
+    from rac.replay.plot import draw, require_matplotlib
     from rac.replay.timeline import summary_lines, to_jsonl
 
+    if args.plot:
+        require_matplotlib()
     model = replayable(load_and_compile(args.model, quiet=args.quiet))
     truth = truth_for(args.runs, args.truth)
     if truth is not None and model.theory.model is not None:

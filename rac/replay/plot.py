@@ -39,15 +39,23 @@ def _lanes(timeline: Timeline) -> dict[str, list[tuple[float, float, bool]]]:
     return lanes
 
 
-def draw(timeline: Timeline, faults: Sequence[InjectedFault], out: Path, title: str) -> None:
+def require_matplotlib() -> None:
+    """RAC055 when the plot extra is missing: checked before a long replay, not after it."""
     try:
         import matplotlib
 
         matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
     except ImportError:
         hint = "install the plot extra: pip install 'racc[plot]'"
         raise RacError([Diagnostic("RAC055", "--plot needs matplotlib", hint=hint)]) from None
+
+
+def draw(timeline: Timeline, faults: Sequence[InjectedFault], out: Path, title: str) -> None:
+    """The timeline drawn to ``out``, in the format its suffix names (PNG for any other, the
+    file name kept as given: matplotlib would add ``.png`` to a name without a suffix)."""
+    require_matplotlib()
+    import matplotlib.pyplot as plt
+
     lanes = _lanes(timeline)
     names = sorted(lanes)
     height = 1.2 + 0.28 * (len(names) + 2)
@@ -75,8 +83,10 @@ def draw(timeline: Timeline, faults: Sequence[InjectedFault], out: Path, title: 
     ax.set_xlabel("seconds from the start of the recording")
     ax.set_title(title, fontsize=9)
     fig.tight_layout()
+    kinds = fig.canvas.get_supported_filetypes()
+    kind = out.suffix[1:].lower() if out.suffix[1:].lower() in kinds else "png"
     try:
-        fig.savefig(out, dpi=110)
+        fig.savefig(out, dpi=110, format=kind)
     except OSError as err:
         raise RacError([Diagnostic("RAC004", f"{out}: cannot write: {err}")]) from None
     finally:
