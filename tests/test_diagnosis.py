@@ -193,6 +193,20 @@ def test_model_yaml_errors_have_lines() -> None:
     assert err.value.diagnostics[0].hint == "did you mean 'rules'?"
 
 
+def test_model_yaml_errors_come_in_file_order() -> None:
+    """The rules are read first, whatever their place: their errors came after the props'
+    and the keys' ones, though above them in the file."""
+    text = 'props:\n  - "ok("\nrules:\n  - "a -> b("\n  - "x, -> y"\nbogus: 1\n'
+    with pytest.raises(RacError) as err:
+        parse_model_yaml(text, "m.yaml")
+    lines = [d.span.line for d in err.value.diagnostics if d.span]
+    assert lines == [2, 4, 5, 6]
+    text = 'rules:\n  - "a -> b("\nprops:\n  - "ok("\nbogus: 1\n'
+    with pytest.raises(RacError) as err:
+        parse_model_yaml(text, "m.yaml")
+    assert [d.span.line for d in err.value.diagnostics if d.span] == [2, 4, 5]
+
+
 @pytest.mark.parametrize("text", ["[1, 2]", "rules: 3\n", "rules: [\n", "props: []\n"])
 def test_model_yaml_shape_errors(text: str) -> None:
     with pytest.raises(RacError) as err:

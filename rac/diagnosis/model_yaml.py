@@ -483,6 +483,8 @@ def _parse(text: str, file: str) -> Theory:
                 errors.append(_error(_where(value, i), f"not an atom: {item!r}"))
     errors.extend(rule_errors)
     if errors:
+        # in file order: the rules are read before the props and the keys, wherever they are
+        errors.sort(key=lambda d: (d.span.line, d.span.column) if d.span else (0, 0))
         raise RacError(errors, text)
     # COMPS from the distinct atoms of the rules (rac.diagnosis.theory.components_of); the
     # atoms are in number order, so the NAB numbers come with the same scan
