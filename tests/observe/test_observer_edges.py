@@ -17,6 +17,7 @@ from rac.observe import (
     DeviceStatus,
     Message,
     NodeSample,
+    ObserverBank,
     PropertySample,
     Verdict,
     build,
@@ -435,3 +436,28 @@ def test_biqobs_side_that_stops_stops_the_checks() -> None:
     # Until side 1's recent trends no longer reach back to side 2's last one, the checks
     # compare the same pair (both rising); then there is nothing to compare.
     assert more == []
+
+
+# -- the bank -------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_bank_ignores_a_time_that_is_not_finite(bad: float) -> None:
+    # GObs counts silence up to a time and BiQObs steps its grid to it: NaN or infinity
+    # raised there (and would poison a regression's sums); the bank drops such an event.
+    bank = ObserverBank(
+        [
+            spec("GObs", OK_X, topic="/x", delta=0.25, dev=0.05, ws=1.0, mismatch_th=2),
+            biq(topic1="/x", topic2="/x"),
+        ]
+    )
+    out = []
+    for k in range(8):
+        out += bank.feed(Message(0.25 * k, "/x", {"x": 1.0, "y": 2.0}))
+    assert texts(out) == ["ok(x)"]
+    assert bank.feed(Message(bad, "/x", {"x": 1.0, "y": 2.0})) == []
+    assert bank.advance(bad) == []
+    out = []
+    for k in range(8, 12):
+        out += bank.feed(Message(0.25 * k, "/x", {"x": 1.0, "y": 2.0}))
+    assert out == []
