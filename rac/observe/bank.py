@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from typing import TypeVar
 
@@ -25,7 +26,9 @@ class ObserverBank:
     """Routes by topic, node, (node, property), device and channel.
 
     Verdicts of one call come by observer order (the specs' order), then by atom; one
-    observer's verdicts on one atom keep their time order.
+    observer's verdicts on one atom keep their time order.  An event or an advance at a
+    time that is not finite is ignored (GObs counts silence and BiQObs steps its grid up to
+    a time; NaN or infinity would fail or poison their sums).
     """
 
     def __init__(self, specs: Iterable[ObserverSpec]) -> None:
@@ -60,6 +63,8 @@ class ObserverBank:
         return dict(self._fields)
 
     def feed(self, event: Event) -> list[Verdict]:
+        if not math.isfinite(event.t):
+            return []  # no time: the observers' windows and grids need one
         if isinstance(event, Message):
             targets = self._topics.get(event.topic, [])
         elif isinstance(event, NodeSample):
@@ -79,6 +84,8 @@ class ObserverBank:
 
     def advance(self, t: float) -> list[Verdict]:
         out: list[Verdict] = []
+        if not math.isfinite(t):
+            return out
         for obs in self.observers:
             out.extend(_ordered(obs.advance(t)))
         return out

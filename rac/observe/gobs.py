@@ -14,6 +14,10 @@ Decisions where the text leaves room:
   occurrence that triggered the check is then tried again against the slid window, so none
   is lost; a healthy topic gets one check per occurrence.
 - A window with fewer than two occurrences has no interval: that check is a violation.
+- **The bound** |μ − δ| ≤ σ is taken with a slack of :data:`RESOLUTION_S` (1 ns, the
+  resolution of ROS time stamps): σ comes to the observer rounded to twelve digits and μ
+  from float time stamps, so a topic at exactly the slow edge of its band (the compiler's
+  σ = 1/(RATE − TOL) − 1/RATE) would otherwise read as a violation by rounding alone.
 - **A topic that stops** produces no occurrence, hence no check at all in the text.  Time
   (``advance`` or the next ``feed``) counts the silence: with E the end O_mid + ω/2 of the
   window when the last occurrence came, one violation is counted at each instant
@@ -35,6 +39,8 @@ from rac.observe.base import Latch, Mismatch, Needs
 from rac.observe.events import Event, Message, Verdict
 from rac.observe.params import Params
 from rac.passes.observers import DEFAULT_MISMATCH_THRESHOLD, ObserverSpec
+
+RESOLUTION_S = 1e-9  # deviations of the mean interval below this are not measurable
 
 
 class GObs:
@@ -83,7 +89,8 @@ class GObs:
         n = len(self._left) + len(self._right)
         last = self._right[-1] if self._right else self._left[-1]
         # μ = mean(ΔW) (Equation 5.2): the intervals telescope to (last − first)/(n − 1).
-        good = n >= 2 and abs((last - self._left[0]) / (n - 1) - self.delta) <= self.dev
+        mu = (last - self._left[0]) / (n - 1) if n >= 2 else math.inf
+        good = abs(mu - self.delta) <= self.dev + RESOLUTION_S
         self._latch.report(t, self._mismatch.check(good), out)
 
     def _slide(self, t: float) -> bool:

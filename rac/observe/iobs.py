@@ -7,6 +7,10 @@ The text reads both values in a loop (lines 3-4) without saying when.  We check 
 message of either topic that carries its field, once both values are known, against the
 latest value of the other side: |v1 − v2| ≤ Δ.  A message that carries both fields (one
 topic) is one check.  Missing or non-finite values are skipped.
+
+The bound is that of the decimal numbers the model and the messages write: |v1 − v2| ≤ Δ up
+to two units in the last place of the largest of the three (1.1 − 1.0 is
+0.10000000000000009 in binary floating point, yet within Δ = 0.1).
 """
 
 from __future__ import annotations
@@ -26,6 +30,12 @@ def field_value(message: Message, field: str) -> float | None:
         return None
     value = float(value)
     return value if math.isfinite(value) else None
+
+
+def within(v1: float, v2: float, bound: float) -> bool:
+    """|v1 − v2| ≤ bound, up to the rounding of the three decimal readings."""
+    slack = 2 * math.ulp(max(abs(v1), abs(v2), abs(bound)))
+    return abs(v1 - v2) <= bound + slack
 
 
 def pair_needs(t1: str, f1: str, t2: str, f2: str) -> Needs:
@@ -57,7 +67,7 @@ class IObs:
         if event.topic == self.topic2 and (v := field_value(event, self.field2)) is not None:
             self._v2, fresh = v, True
         if fresh and self._v1 is not None and self._v2 is not None:
-            good = abs(self._v1 - self._v2) <= self.max_diff
+            good = within(self._v1, self._v2, self.max_diff)
             self._latch.report(event.t, self._mismatch.check(good), out)
         return out
 

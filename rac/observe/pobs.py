@@ -7,11 +7,13 @@ One check per :class:`PropertySample`: the sample enters a circular queue of n =
 that starts as zeros (line 1) and the check is mean(queue) ≤ v_max.  The zeros only pull the
 mean down, so during the first n samples an overload shows late rather than early (§5.2.7
 says the fill-up is tolerated by θ; the samples' rate is the runtime's choice, 10 Hz in the
-text).
+text).  A sample that is not finite is no measurement and is skipped, as a message's
+non-finite field is: in the queue it would spoil the mean for the next n checks.
 """
 
 from __future__ import annotations
 
+import math
 from collections import deque
 
 from rac.observe.base import Latch, Mismatch, Needs, plain_node
@@ -43,6 +45,7 @@ class PObs:
             isinstance(event, PropertySample)
             and event.prop == self.prop
             and plain_node(event.node) == self.node
+            and math.isfinite(event.value)
         ):
             self._queue.append(event.value)  # the full deque drops its oldest (line 4)
             mean = sum(self._queue) / QUEUE_SIZE

@@ -8,15 +8,16 @@ QObs is not an observer of its own in the model: BiQObs runs two of them.
   slopes, and over those again, with the same window.  Each regression also gives the
   standard error of its slope from its residuals, se = √(SSR/(n−2)/Sxx).
 - inc when β > β_p, dec when β < β_n; otherwise cons when the second and third derivatives
-  lie within their own limits, else the previous trend (cons when there is none).
+  lie within [β_n, β_p], the slope's own limits (line 17 and the errata), else the previous
+  trend (cons when there is none).  The bounds are included (line 17 has <): a perfectly
+  flat signal has slopes and limits of 0 and must still read constant.
 - The integrated side I(f) replaces each value by the running sum of the field's samples
   since the observer started (the learner's ``np.cumsum``); slopes do not see the offset.
-- β_p = ``slope`` and β_n = −``slope`` when the spec gives a slope (all three levels).
-  Otherwise, per sample and per level, β_p = max(:data:`SIGNIFICANCE`·se, floor) with that
-  level's se, β_n = −β_p; the floor is :data:`FLOOR_FRACTION` of the
-  :data:`FLOOR_QUANTILE` quantile of |β| over a history of |β| taken once per half window
-  (the last :data:`HISTORY`), the same for all levels.  No trend is given until the
-  history holds :data:`MIN_HISTORY` entries (10 s at ω = 1 s).
+- β_p = ``slope`` and β_n = −``slope`` when the spec gives a slope.  Otherwise, per sample,
+  β_p = max(:data:`SIGNIFICANCE`·se, floor) with the se of the sample's slope, β_n = −β_p;
+  the floor is :data:`FLOOR_FRACTION` of the :data:`FLOOR_QUANTILE` quantile of |β| over a
+  history of |β| taken once per half window (the last :data:`HISTORY`).  No trend is given
+  until the history holds :data:`MIN_HISTORY` entries (10 s at ω = 1 s).
 
 This deviates from the learner (:mod:`rac.learn.trends`), whose β_p/β_n are the medians of
 the positive/negative slopes of a whole recording.  A running observer has no recording,

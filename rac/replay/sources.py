@@ -30,6 +30,7 @@ from rac.errors import Diagnostic, RacError
 from rac.learn.fields import FieldSelector
 from rac.learn.recording import MAX_SPAN_S, Run, far_off_stamp, message_stream, read_run
 from rac.loader import read_text
+from rac.observe.dobs import violations_first
 from rac.observe.events import DeviceStatus, Event, NodeSample, PropertySample
 
 DIAGNOSTICS_TOPIC = "/diagnostics"
@@ -151,12 +152,11 @@ def _diagnostics(path: str, start: float) -> Iterable[DeviceStatus]:
             for conn, stamp, raw in reader.messages(connections=conns):
                 msg = reader.deserialize(raw, conn.msgtype)
                 t = stamp * 1e-9 - start
-                for status in getattr(msg, "status", ()):
-                    out.append(
-                        DeviceStatus(
-                            t, str(status.name), str(status.hardware_id), _level(status.level)
-                        )
-                    )
+                array = [
+                    DeviceStatus(t, str(status.name), str(status.hardware_id), _level(status.level))
+                    for status in getattr(msg, "status", ())
+                ]
+                out.extend(violations_first(array))  # one check per array, at its worst
     except Exception as err:  # rosbags raises many kinds on damaged files
         message = f"{path}: cannot read {DIAGNOSTICS_TOPIC}: {err or type(err).__name__}"
         raise RacError([Diagnostic("RAC080", message)]) from None

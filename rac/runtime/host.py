@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 from rac.logic import Atom
 from rac.observe import ChannelState, DeviceStatus, Event, Message, ObserverBank, Verdict
+from rac.observe.dobs import violations_first
 from rac.passes.observers import ObserverSpec
 from rac.runtime.procs import ProcessProbe
 from rac.runtime.status import Row, literal_row, row_channel
@@ -60,7 +61,8 @@ class ObserverHost:
     def device_rows(self, rows: Iterable[Row]) -> None:
         """A ``/diagnostics`` array (DObs)."""
         t = self.clock()
-        self.feed([DeviceStatus(t, r.name, r.hardware_id, r.level) for r in rows])
+        # One check per array at its worst level (DObs): violations first.
+        self.feed(violations_first(DeviceStatus(t, r.name, r.hardware_id, r.level) for r in rows))
 
     def channel_rows(self, rows: Iterable[Row]) -> None:
         """A ``/board_measurements`` array (HObs)."""
