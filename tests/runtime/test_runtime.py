@@ -16,6 +16,7 @@ from rac.loader import load_model, load_observers
 from rac.logic import Atom
 from rac.observe import NodeSample, Verdict
 from rac.pipeline import compile_model
+from rac.repair import robot_name
 from rac.runtime.demo import DemoNode, parse_demo_fault, start_body
 from rac.runtime.diagnoser import Diagnoser
 from rac.runtime.host import ObserverHost
@@ -270,3 +271,18 @@ def test_without_ros_the_nodes_say_how_to_get_it(
     assert main(["engine", str(build / "model.yaml")]) == 1
     err = capsys.readouterr().err
     assert "RAC057" in err and "--system-site-packages" in err
+
+
+def test_robot_name_of_a_compiled_model_yaml_is_the_models_not_its_directorys(
+    build: Path, tmp_path: Path
+) -> None:
+    # /diagnosis, /diagnostics and /repair_log name the robot (docs/runtime.md): compiled
+    # into build/, tedusar is still 'tedusar'; a hand-written file keeps its directory's.
+    out = tmp_path / "build"
+    out.mkdir()
+    text = (build / "model.yaml").read_text(encoding="utf-8")
+    (out / "model.yaml").write_text(text, encoding="utf-8")
+    path = str(out / "model.yaml")
+    assert robot_name(load_theory(path), path) == "tedusar"
+    (out / "model.yaml").write_text(text.split("\n", 1)[1], encoding="utf-8")
+    assert robot_name(load_theory(path), path) == "build"
