@@ -98,7 +98,13 @@ def test_demo_without_the_ros_client_library_starts_nothing(
     monkeypatch.setitem(sys.modules, module, None)
     monkeypatch.setattr(subprocess, "Popen", refuse)
     assert main(["demo", TEDUSAR, "--ros", ros, "-o", str(tmp_path / "demo")]) == 1
-    assert f"error[{code}]" in capsys.readouterr().err
+    out, err = capsys.readouterr()
+    assert f"error[{code}]" in err
+    # Nor writes a package whose executables would run this Python (without ROS): no
+    # "wrote ... export ..." above the error.
+    assert not (tmp_path / "demo").exists() and "wrote" not in out
+    # --write-only needs no ROS.
+    assert main(["demo", TEDUSAR, "--ros", ros, "-o", str(tmp_path / "w"), "--write-only"]) == 0
 
 
 def test_a_missing_planner_named_by_the_environment_says_which_path(

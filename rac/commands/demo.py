@@ -125,9 +125,12 @@ def _prepend(env: dict[str, str], variable: str, path: Path) -> None:
 def run(args: argparse.Namespace) -> int:
     model = load_checked(args.model)
     faults = [parse_demo_fault(f, model) for f in args.fault]
+    ros = ros_version(args)
+    if not args.write_only:
+        # Before writing: the package's executables would run this Python, which cannot.
+        _require_client_library(ros)
     out = Path(args.output).resolve()
     out.mkdir(parents=True, exist_ok=True)
-    ros = ros_version(args)
     epoch = time.time()
     software = [fault_text(f) for f in faults if f.kind != "trip"]
     nodes = [n.name.value for n in model.nodes]
@@ -149,7 +152,6 @@ def run(args: argparse.Namespace) -> int:
     print(f"export {variable}={prefix}{os.pathsep}${variable}")
     if args.write_only:
         return 0
-    _require_client_library(ros)
     _prepend(env, variable, prefix)
     procs: list[subprocess.Popen[bytes]] = []
     try:

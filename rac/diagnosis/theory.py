@@ -56,6 +56,8 @@ class Theory:
     nab: str = NAB
     neg_prefix: str = NEG_PREFIX
     model: Model | None = None
+    # the robot's name from the header line racc writes atop a model.yaml (None: no header)
+    robot: str | None = field(default=None, compare=False)
     # the clauses already numbered (rac.diagnosis.model_yaml): a speed-up, never a meaning
     table: ClauseTable | None = field(default=None, compare=False, repr=False)
 

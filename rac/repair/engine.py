@@ -62,9 +62,12 @@ class RepairResult:
 
 
 def robot_name(theory: Theory, path: str) -> str:
-    """The RAM's name; for a model server file, its stem (its directory's name for model.yaml)."""
+    """The RAM's name; for a model server file, the name in racc's header line, else its
+    stem (its directory's name for model.yaml)."""
     if theory.model is not None:
         return theory.model.name.value
+    if theory.robot is not None:
+        return theory.robot
     file = Path(path)
     stem = file.parent.resolve().name if file.stem == "model" else file.stem
     return re.sub(r"[^A-Za-z0-9_]", "_", mangle(stem)) or "robot"

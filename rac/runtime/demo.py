@@ -264,9 +264,12 @@ def driver_nodes(model: Model) -> dict[str, Node]:
 # Python ROS node alone is larger than most nodes' memory limits).  ROS 1 reports its pid
 # through getPid; on ROS 2 it carries the node's ``__node:=`` argument and, being the
 # innermost process with it, is the one found.  cpu and mem faults act on it; it ends
-# with its node (its stdin closes).
+# with its node (its stdin closes).  It ignores SIGINT: Ctrl-C on roslaunch (or ``timeout
+# -s INT``) reaches the whole process group, and the body, which ends when its node does,
+# would otherwise print a KeyboardInterrupt traceback per node.
 BODY = """
-import os, sys, threading, time
+import os, signal, sys, threading, time
+signal.signal(signal.SIGINT, signal.SIG_IGN)
 state = {"cpu": 0.0, "mem": 0}
 held = []
 def read():

@@ -11,7 +11,10 @@ waits for the action server), each step waits until its effect shows in Θ:
 with a time-out; a step whose effect does not show is tried once more, then the repair is
 abandoned with an escalation message (RAC110) for a human.  An effect no observer reports
 is assumed after a short pause.  After the last step the executor waits for the engine to
-publish an empty diagnosis (verified) before it acts on a diagnosis again.  Every decision
+publish an empty diagnosis (verified) before it acts on a diagnosis again; a diagnosis that
+stands and names none of the components the plan repaired or acted on is a new fault (one
+that appeared during the repair): the repair counts as verified and the new fault is
+repaired at once, instead of after the verification's time-out.  Every decision
 goes to ``log`` as a :class:`LogEntry`.
 """
 
@@ -113,6 +116,7 @@ class RepairExecutor:
         self._started = 0.0
         self._step_started = 0.0
         self._plan_done = 0.0
+        self._touched: frozenset[str] = frozenset()  # components the plan repairs or acts on
         self._unverified = 0  # plans in a row that ran but left a fault
         self.repairs = 0  # plans verified
         self.escalations = 0
@@ -180,6 +184,7 @@ class RepairExecutor:
             self._escalated(now, f"diagnosis {shown} cannot be repaired automatically")
             return
         self.plan = solved.plan
+        self._touched = frozenset(prepared.bad) | {c for step in self.plan for c in step[1:]}
         if not self.plan:
             self._quiet_until = now + self.settings.verify_timeout_s
             return
@@ -274,6 +279,14 @@ class RepairExecutor:
         self.state = State.IDLE
         self._quiet_until = now + self.settings.backoff_s
 
+    def _new_fault(self, now: float) -> bool:
+        """Does a diagnosis stand that names nothing the plan touched (a fault that appeared
+        during the repair)?  While a repaired node comes back, diagnoses still name it."""
+        diagnoses = self._diagnoses
+        if not diagnoses or now - self._since < self.settings.confirm_s:
+            return False
+        return not any(self._touched.intersection(d) for d in diagnoses)
+
     def _check_verified(self, now: float) -> None:
         fresh = self._diagnosis_t > self._plan_done
         if fresh and self._diagnoses == ():
@@ -283,6 +296,22 @@ class RepairExecutor:
             self._unverified = 0
             self.state = State.IDLE
             self._quiet_until = now
+        elif fresh and self._new_fault(now):
+            took = now - self._started
+            shown = " | ".join("{" + ",".join(d) + "}" for d in self._diagnoses or ())
+            self._emit(
+                OK,
+                "verify",
+                self.robot,
+                f"{','.join(sorted(self._touched))} repaired in {took:.2f} s; "
+                f"a new fault remains: {shown}",
+            )
+            self.repairs += 1
+            self._unverified = 0
+            self.state = State.IDLE
+            # The diagnosis already stood after the plan: plan for it without waiting for
+            # the engine's next message.
+            self._quiet_until = self._diagnosis_t
         elif now >= self._deadline:
             self._unverified += 1
             shown = " | ".join("{" + ",".join(d) + "}" for d in self._diagnoses or ())

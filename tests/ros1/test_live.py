@@ -248,10 +248,18 @@ def test_demo_robot_faults_are_diagnosed_repaired_and_verified(live: Live) -> No
     seen = live.seen
     board, control = free_port(), free_port()
     crash_at, trip_at, freq_at = 25.0, 45.0, 65.0
+    # A second crash 2 s after a first one, while jaguar_node is being restarted.
+    first_at, second_at = 78.0, 80.0
     demo, demo_dir, epoch = start_demo(
         live,
         "demo1",
-        [f"crash@{crash_at:g}:jaguar_node", f"trip@{trip_at:g}:jaguar", f"freq@{freq_at:g}:/scan"],
+        [
+            f"crash@{crash_at:g}:jaguar_node",
+            f"trip@{trip_at:g}:jaguar",
+            f"freq@{freq_at:g}:/scan",
+            f"crash@{first_at:g}:jaguar_node",
+            f"crash@{second_at:g}:imu_node",
+        ],
         board=board,
         control=control,
     )
@@ -292,6 +300,38 @@ def test_demo_robot_faults_are_diagnosed_repaired_and_verified(live: Live) -> No
         named = seen.wait(named_since(seen, freq, "hokuyo_node"), freq - time.time() + 10)
         assert named is not None, "the 5x frequency fault was not diagnosed as hokuyo_node"
         print(f"time to diagnose the frequency fault: {named - freq:.2f} s")
+        ok_again = seen.wait(all_ok_since(seen, named, live.atoms), first_at - freq_at - 3)
+        assert ok_again is not None, "not all ok again after the frequency fault"
+        print(f"time to recover from the frequency fault: {ok_again - freq:.2f} s")
+
+        first, second = epoch + first_at, epoch + second_at
+        named = seen.wait(named_since(seen, second, "imu_node"), second - time.time() + 10)
+        assert named is not None, "the second crash (imu_node) was not diagnosed"
+        ok_again = seen.wait(all_ok_since(seen, named, live.atoms), 20)
+        assert ok_again is not None, "not all ok again after two crashes"
+        assert logged(seen, first, "start_node", "jaguar_node")
+        print(f"time to recover from a crash during a repair: {ok_again - second:.2f} s")
+
+        def verified() -> float | None:
+            done = [
+                t
+                for t, action, _, _, msg in seen.repair_log
+                if t >= second and action == "verify" and msg.startswith("no fault")
+            ]
+            return done[0] if done else None
+
+        # The repair log can trail the observations by a tick.
+        assert seen.wait(verified, 5) is not None, "the repairs were not verified"
+        with seen.lock:
+            verify = [
+                (level, msg)
+                for t, action, _, level, msg in seen.repair_log
+                if t >= first and action == "verify"
+            ]
+        assert logged(seen, second, "start_node", "imu_node")
+        # The new fault is repaired as soon as the first repair's node is back, not after
+        # a failed verification (level 1) of the first repair.
+        assert verify and all(level == 0 for level, _ in verify), verify
         with seen.lock:
             flips = [
                 (round(t - epoch, 1), m)

@@ -4,6 +4,8 @@ repair executor (with a scripted actuator and clock), the process probe and the 
 from __future__ import annotations
 
 import os
+import signal
+import time
 from pathlib import Path
 
 import pytest
@@ -14,7 +16,8 @@ from rac.loader import load_model, load_observers
 from rac.logic import Atom
 from rac.observe import NodeSample, Verdict
 from rac.pipeline import compile_model
-from rac.runtime.demo import DemoNode, parse_demo_fault
+from rac.repair import robot_name
+from rac.runtime.demo import DemoNode, parse_demo_fault, start_body
 from rac.runtime.diagnoser import Diagnoser
 from rac.runtime.host import ObserverHost
 from rac.runtime.procs import ProcessProbe
@@ -100,6 +103,21 @@ def test_demo_faults_hit_only_the_process_running_at_their_time() -> None:
     with pytest.raises(RacError) as err:
         parse_demo_fault("trip@5:imu", model)
     assert err.value.diagnostics[0].code == "RAC113"
+
+
+def test_demo_body_outlives_ctrl_c_quietly_and_ends_with_its_stdin() -> None:
+    # Ctrl-C reaches the whole process group: the body must not print a traceback for
+    # it, and still end when its node does (stdin closed).
+    body = start_body()
+    try:
+        time.sleep(0.3)  # past the interpreter's start, into the loop
+        body.send_signal(signal.SIGINT)
+        time.sleep(0.2)
+        assert body.poll() is None
+    finally:
+        assert body.stdin is not None
+        body.stdin.close()
+    assert body.wait(timeout=5) == 0
 
 
 def test_host_reports_changes_and_rows(build: Path) -> None:
@@ -193,6 +211,34 @@ def test_executor_restarts_a_crashed_node_and_verifies(build: Path) -> None:
     assert [e.action for e in log] == ["plan", "start_node", "start_node", "verify"]
 
 
+def test_executor_repairs_a_fault_that_appears_during_a_repair_at_once(build: Path) -> None:
+    # hokuyo_node crashes while jaguar_node is being restarted: once jaguar_node is back,
+    # the standing diagnosis names only hokuyo_node, so the repair is verified and
+    # hokuyo_node restarted without waiting out the verification's time-out (2 s here).
+    ex, script, log, now = _executor(build, works=True)
+    ex.observe(Verdict(0, Atom("running", ("jaguar_node",)), False))
+    ex.diagnosis((("jaguar_node",),))
+    for k in range(8):
+        now[0] = 0.1 * k
+        ex.tick()
+    assert ex.state is State.VERIFYING
+    ex.observe(Verdict(0, Atom("running", ("hokuyo_node",)), False))
+    ex.diagnosis((("hokuyo_node", "jaguar_node"),))  # stale: still names jaguar_node
+    for k in range(8, 15):
+        now[0] = 0.1 * k
+        ex.tick()
+    assert ex.state is State.VERIFYING  # a diagnosis naming the repaired node: wait
+    ex.diagnosis((("hokuyo_node",),))
+    for k in range(15, 22):
+        now[0] = 0.1 * k
+        ex.tick()
+    assert script.calls == [("start_node", "jaguar_node"), ("start_node", "hokuyo_node")]
+    verify = [e for e in log if e.action == "verify"]
+    assert [e.level for e in verify] == [0]
+    assert "a new fault remains: {hokuyo_node}" in verify[0].message
+    assert ex.repairs == 1 and ex.escalations == 0
+
+
 def test_executor_retries_once_then_escalates(build: Path) -> None:
     ex, script, log, now = _executor(build, works=False)
     ex.observe(Verdict(0, Atom("running", ("jaguar_node",)), False))
@@ -225,3 +271,18 @@ def test_without_ros_the_nodes_say_how_to_get_it(
     assert main(["engine", str(build / "model.yaml")]) == 1
     err = capsys.readouterr().err
     assert "RAC057" in err and "--system-site-packages" in err
+
+
+def test_robot_name_of_a_compiled_model_yaml_is_the_models_not_its_directorys(
+    build: Path, tmp_path: Path
+) -> None:
+    # /diagnosis, /diagnostics and /repair_log name the robot (docs/runtime.md): compiled
+    # into build/, tedusar is still 'tedusar'; a hand-written file keeps its directory's.
+    out = tmp_path / "build"
+    out.mkdir()
+    text = (build / "model.yaml").read_text(encoding="utf-8")
+    (out / "model.yaml").write_text(text, encoding="utf-8")
+    path = str(out / "model.yaml")
+    assert robot_name(load_theory(path), path) == "tedusar"
+    (out / "model.yaml").write_text(text.split("\n", 1)[1], encoding="utf-8")
+    assert robot_name(load_theory(path), path) == "build"
