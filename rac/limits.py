@@ -13,6 +13,7 @@ accepted model writable and readable back, and every run linear in its input:
 
 from __future__ import annotations
 
+import contextlib
 import math
 import re
 from collections.abc import Iterator
@@ -216,22 +217,39 @@ def compose_yaml(text: str) -> yaml.Node | None:
     return root
 
 
-def yaml_limit_error(text: str, file: str) -> RacError | None:
-    """RAC009, located, when ``text`` is beyond the YAML limits (its size, nesting, anchors and
-    aliases), else None: then ``yaml.safe_load`` is safe, and says itself what is not YAML.
-
-    For the YAML files read with ``yaml.safe_load`` (observers.yaml, costs, tug configs, faults
-    files): its recursion and its aliases (a "billion laughs" file) are not to be trusted.
-    """
+def composed_yaml(text: str, file: str) -> yaml.Node | None:
+    """:func:`compose_yaml` of a file's text, its size checked first: RacError RAC009, located,
+    beyond the YAML limits (size, nesting, anchors and aliases); ``yaml.YAMLError`` for a text
+    that is not YAML, for the caller to report with its own code."""
     if len(text) > MAX_YAML_BYTES:
         message = f"the file is {len(text):,} characters long (at most {MAX_YAML_BYTES:,})"
-        return RacError([Diagnostic("RAC009", message, Span(file, 1, 1, 1, 2))])
+        raise RacError([Diagnostic("RAC009", message, Span(file, 1, 1, 1, 2))])
     try:
-        compose_yaml(text)
+        return compose_yaml(text)
     except YamlLimit as err:
         line, column = err.mark.line + 1, err.mark.column + 1
         where = Span(file, line, column, line, column + 1)
-        return RacError([Diagnostic("RAC009", err.message, where)], text)
+        raise RacError([Diagnostic("RAC009", err.message, where)], text) from None
+
+
+def check_yaml_limits(text: str, file: str) -> None:
+    """RAC009 when ``text`` is beyond the YAML limits; a text that is not YAML at all passes,
+    for the caller's own parser to say why."""
+    with contextlib.suppress(yaml.YAMLError):
+        composed_yaml(text, file)
+
+
+def safe_yaml(text: str, file: str) -> Any:
+    """``yaml.safe_load(text)`` within the YAML limits (RAC009 beyond them).
+
+    For the YAML files read whole (observers.yaml, costs, tug configs): PyYAML's recursion
+    and its aliases (a "billion laughs" file) are not to be trusted.  A text that passed the
+    limits is loaded by libyaml's loader where installed (the same constructor, several
+    times faster: seconds on a 10,000-node observers.yaml); one that is not YAML raises
+    PyYAML's own ``yaml.YAMLError``, the message the callers print.
+    """
+    try:
+        composed_yaml(text, file)
     except yaml.YAMLError:
-        return None
-    return None
+        return yaml.safe_load(text)
+    return yaml.load(text, Loader=_YAML_LOADER)

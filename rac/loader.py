@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, BinaryIO
 import yaml
 
 from rac.errors import Diagnostic, RacError, Span
-from rac.limits import MAX_INPUT_BYTES, yaml_limit_error
+from rac.limits import MAX_INPUT_BYTES, safe_yaml
 from rac.logic import parse_atom
 
 if TYPE_CHECKING:  # the parsers and passes load on first use: `racc diagnose x.yaml` needs none
@@ -121,11 +121,8 @@ def load_observers(path: str | Path) -> tuple[str, tuple[ObserverSpec, ...]]:
         hint = "give the observers.yaml that 'racc compile' wrote"
         return RacError([Diagnostic("RAC056", f"{path}: {why}", hint=hint)])
 
-    limit = yaml_limit_error(text, str(path))
-    if limit is not None:
-        raise limit
     try:
-        data = yaml.safe_load(text)
+        data = safe_yaml(text, str(path))
     except yaml.YAMLError as err:
         raise bad(f"not YAML: {err}") from None
     if not isinstance(data, dict) or not isinstance(data.get("observers"), list):

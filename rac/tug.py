@@ -28,7 +28,7 @@ import yaml
 
 from rac.errors import Diagnostic, RacError, Severity
 from rac.ir import Model, Name, Node, Publication, Topic
-from rac.limits import yaml_limit_error
+from rac.limits import safe_yaml
 
 DEFAULT_RATE_HZ = 10.0
 
@@ -89,11 +89,8 @@ def _identifier(text: str) -> str:
 
 
 def import_tug(text: str, path: str, robot: str, default_rate: float = DEFAULT_RATE_HZ) -> Imported:
-    limit = yaml_limit_error(text, path)
-    if limit is not None:
-        raise limit
     try:
-        doc = yaml.safe_load(text)
+        doc = safe_yaml(text, path)
     except yaml.YAMLError as err:
         raise _bad(path, f"not YAML: {err}") from None
     if not isinstance(doc, dict) or not isinstance(doc.get("nodes"), list):

@@ -340,3 +340,23 @@ def test_an_mcap_bag_with_a_damaged_length_is_an_input_error(
         assert main([*argv, "-q"]) == 1
         err = capsys.readouterr().err
         assert "error[RAC080]" in err and "ran out of memory" in err
+
+
+def test_safe_yaml_loads_what_safe_load_loads_and_fails_as_it_does() -> None:
+    """Within the limits the document is read by libyaml's loader: the same data as
+    ``yaml.safe_load``; a text that is not YAML fails with PyYAML's own error."""
+    import yaml
+
+    from rac.commands.common import load_and_compile
+    from rac.limits import safe_yaml
+    from rac.targets import EmitOptions
+    from rac.targets.observers_yaml import emit_observers_yaml
+
+    text = emit_observers_yaml(load_and_compile(str(TEDUSAR), quiet=True), EmitOptions())
+    assert safe_yaml(text, "observers.yaml") == yaml.safe_load(text)
+    broken = "observers: [a, b\nname: x\n"
+    with pytest.raises(yaml.YAMLError) as ours:
+        safe_yaml(broken, "o.yaml")
+    with pytest.raises(yaml.YAMLError) as theirs:
+        yaml.safe_load(broken)
+    assert str(ours.value) == str(theirs.value)

@@ -18,7 +18,7 @@ from rac.commands.common import add_command, write_file_atomically
 from rac.diagnosis import load_theory
 from rac.errors import Diagnostic, RacError
 from rac.fmt import format_model
-from rac.limits import yaml_limit_error
+from rac.limits import safe_yaml
 from rac.loader import load_model, read_text
 
 
@@ -85,11 +85,8 @@ def _budget(text: str) -> float:
 
 def load_costs(path: str) -> dict[str, float]:
     text = read_text(path)
-    limit = yaml_limit_error(text, path)
-    if limit is not None:
-        raise limit
     try:
-        doc = yaml.safe_load(text)
+        doc = safe_yaml(text, path)
     except yaml.YAMLError as err:
         raise RacError([Diagnostic("RAC062", f"{path}: not YAML: {err}")]) from None
     if doc is None:

@@ -23,7 +23,7 @@ import yaml
 
 from rac.diagnosis.theory import ClauseTable, Key, Theory
 from rac.errors import Diagnostic, RacError, Span, did_you_mean
-from rac.limits import MAX_YAML_BYTES, YamlLimit, compose_yaml
+from rac.limits import MAX_YAML_BYTES, composed_yaml
 from rac.logic import (
     AB,
     COMPACT_ATOM,
@@ -202,11 +202,7 @@ def _read_entries(text: str, file: str) -> tuple[Entries, Span]:
     if fast is not None:
         return fast, fast[0][1]
     try:
-        root = compose_yaml(text)
-    except YamlLimit as err:
-        line, column = err.mark.line + 1, err.mark.column + 1
-        where = Span(file, line, column, line, column + 1)
-        raise RacError([Diagnostic("RAC009", err.message, where)], text) from None
+        root = composed_yaml(text, file)
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         span = (

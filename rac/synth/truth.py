@@ -33,7 +33,7 @@ import yaml
 
 from rac.errors import Diagnostic, RacError, Severity, Span, did_you_mean
 from rac.ir import Model
-from rac.limits import yaml_limit_error
+from rac.limits import check_yaml_limits
 from rac.synth.faults import FAULT_KINDS, Fault
 
 SUFFIX = ".faults.yaml"
@@ -244,9 +244,7 @@ def _fault(reader: _Reader, node: yaml.Node, duration: float | None) -> Injected
 
 def parse_truth(text: str, file: str) -> GroundTruth:
     """A faults file's truth; RacError (RAC085, RAC086) with every problem found."""
-    limit = yaml_limit_error(text, file)
-    if limit is not None:
-        raise limit
+    check_yaml_limits(text, file)
     try:
         root = yaml.compose(text, Loader=yaml.SafeLoader)
     except yaml.YAMLError as err:
