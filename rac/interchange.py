@@ -197,14 +197,9 @@ class _Reader:
         items = self.typed(value, list, "a list of names", where) or []
         out = []
         span_at = self.span_at
-        if span_at is None:  # the fast read: nothing more per name than lowering it
-            for i, item in enumerate(items):
-                if self.typed(item, str, "a name (string)", (*where, i)) is not None:
-                    out.append(Name(item))
-        else:
-            for i, item in enumerate(items):
-                if self.typed(item, str, "a name (string)", (*where, i)) is not None:
-                    out.append(Name(item, span_at((*where, i))))
+        for i, item in enumerate(items):
+            if self.typed(item, str, "a name (string)", (*where, i)) is not None:
+                out.append(Name(item, None if span_at is None else span_at((*where, i))))
         return tuple(out)
 
     def number(self, value: Any, where: JsonPath) -> float | None:
@@ -262,7 +257,7 @@ class _Reader:
             self.name(h.get("name", ""), (*where, "name")),
             switchable=switchable,
             channel=self.integer(h.get("channel"), (*where, "channel")),
-            span=None if self.span_at is None else self.span_at(where),
+            span=self.at(where),
         )
 
     def topic(self, value: Any, where: JsonPath) -> Topic:
@@ -281,7 +276,7 @@ class _Reader:
             ),
             window_s=self.number(t.get("window_s"), (*where, "window_s")),
             mismatch_threshold=mismatch,
-            span=None if self.span_at is None else self.span_at(where),
+            span=self.at(where),
         )
 
     def node(self, value: Any, where: JsonPath) -> Node:
@@ -299,10 +294,10 @@ class _Reader:
             limits=Limits(
                 cpu=self.number(limits.get("cpu"), (*where, "limits", "cpu")),
                 mem=round(mem) if mem is not None else None,
-                span=None if self.span_at is None else self.span_at((*where, "limits")),
+                span=self.at((*where, "limits")),
             ),
             diagnostics=self.names(n.get("diagnostics"), (*where, "diagnostics")),
-            span=None if self.span_at is None else self.span_at(where),
+            span=self.at(where),
         )
 
     def publication(self, value: Any, where: JsonPath) -> Publication:
@@ -456,27 +451,29 @@ def _located(problems: list[_Problem], text: str, path: str) -> list[Diagnostic]
             offsets.append((key_start, key_end))
         else:
             offsets.append((value_start, value_end))
-    places = _line_columns(text, sorted({o for pair in offsets for o in pair}))
+    lines = _Lines(text, path)
     located = []
     for problem, (start, end) in zip(problems, offsets, strict=True):
-        span = Span(path, *places[start], *places[end])
+        span = lines.span(start, end)
         located.append((start, Diagnostic(problem.code, problem.message, span, hint=problem.hint)))
     located.sort(key=lambda pair: pair[0])  # stable: problems at one place keep their order
     return [diagnostic for _, diagnostic in located]
 
 
-def _line_columns(text: str, offsets: list[int]) -> dict[int, tuple[int, int]]:
-    """1-based (line, column) of each offset, given in ascending order, in one pass."""
-    places = {}
-    line, line_start, counted_to = 1, 0, 0
-    for offset in offsets:
-        newlines = text.count("\n", counted_to, offset)
-        if newlines:
-            line += newlines
-            line_start = text.rfind("\n", counted_to, offset) + 1
-        counted_to = offset
-        places[offset] = (line, offset - line_start + 1)
-    return places
+class _Lines:
+    """Offsets of a text as spans: its line starts, found once, searched by bisection."""
+
+    def __init__(self, text: str, path: str) -> None:
+        self.path = path
+        self.starts = [0, *(m.end() for m in re.finditer("\n", text))]
+
+    def span(self, start: int, end: int) -> Span:
+        starts = self.starts
+        line = bisect_right(starts, start)
+        end_line = bisect_right(starts, end, line - 1)
+        return Span(
+            self.path, line, start - starts[line - 1] + 1, end_line, end - starts[end_line - 1] + 1
+        )
 
 
 class _SpanLookup:
@@ -484,24 +481,15 @@ class _SpanLookup:
     ``doc``), by JSON path."""
 
     def __init__(self, text: str, doc: Any, path: str) -> None:
-        self.path = path
         found = _in_order(text, doc)
         if found is None:  # a duplicated key: only a walk of the text knows which one counts
             found = {p: (s[0], s[1]) for p, s in _Locator(text, None).spans.items()}
         self.offsets = found
-        self.line_starts = [0, *(m.end() for m in re.finditer("\n", text))]
+        self.lines = _Lines(text, path)
 
     def at(self, where: JsonPath) -> Span | None:
         found = self.offsets.get(where)
-        if found is None:
-            return None
-        start, end = found
-        starts = self.line_starts
-        line = bisect_right(starts, start)
-        end_line = bisect_right(starts, end, line - 1)
-        return Span(
-            self.path, line, start - starts[line - 1] + 1, end_line, end - starts[end_line - 1] + 1
-        )
+        return None if found is None else self.lines.span(*found)
 
 
 # Outside its strings, a JSON text holds no quote; inside them, no bracket counts.

@@ -197,8 +197,8 @@ def write_files_atomically(
     link is impossible.  Any failure before the swap (a full disk, an unwritable or immutable
     entry, a directory where a file goes) leaves the old directory exactly as it was.
     """
-    directory = resolved_path(directory)
-    if _exists(directory) and not directory.is_dir():
+    directory = resolved_path(directory)  # a name that cannot be looked up stops here
+    if directory.exists() and not directory.is_dir():
         message = f"{directory}: exists and is not a directory; choose another output directory"
         raise RacError([Diagnostic("RAC004", message)])
     if _holds_cwd(directory):
@@ -250,13 +250,6 @@ def resolved_path(path: Path) -> Path:
         why = err.strerror if isinstance(err, OSError) and err.strerror else str(err)
         raise RacError([Diagnostic("RAC004", f"{path}: cannot write: {why}")]) from None
     return resolved
-
-
-def _exists(path: Path) -> bool:
-    try:
-        return path.exists()
-    except OSError:
-        return False
 
 
 def _holds_cwd(directory: Path) -> bool:
