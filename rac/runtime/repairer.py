@@ -279,6 +279,18 @@ class RepairExecutor:
         self.state = State.IDLE
         self._quiet_until = now + self.settings.backoff_s
 
+    def _verified(self, now: float, message: str, after: str = "", *, quiet_until: float) -> None:
+        """The repair is verified: ``message`` with the time it took (then ``after``)."""
+        self._emit(OK, "verify", self.robot, f"{message} in {now - self._started:.2f} s{after}")
+        self.repairs += 1
+        self._unverified = 0
+        self.state = State.IDLE
+        self._quiet_until = quiet_until
+
+    def _shown(self) -> str:
+        """The standing diagnoses as the log writes them: ``{a,b} | {c}``."""
+        return " | ".join("{" + ",".join(d) + "}" for d in self._diagnoses or ())
+
     def _new_fault(self, now: float) -> bool:
         """Does a diagnosis stand that names nothing the plan touched (a fault that appeared
         during the repair)?  While a repaired node comes back, diagnoses still name it."""
@@ -290,31 +302,16 @@ class RepairExecutor:
     def _check_verified(self, now: float) -> None:
         fresh = self._diagnosis_t > self._plan_done
         if fresh and self._diagnoses == ():
-            took = now - self._started
-            self._emit(OK, "verify", self.robot, f"no fault: repaired in {took:.2f} s")
-            self.repairs += 1
-            self._unverified = 0
-            self.state = State.IDLE
-            self._quiet_until = now
+            self._verified(now, "no fault: repaired", quiet_until=now)
         elif fresh and self._new_fault(now):
-            took = now - self._started
-            shown = " | ".join("{" + ",".join(d) + "}" for d in self._diagnoses or ())
-            self._emit(
-                OK,
-                "verify",
-                self.robot,
-                f"{','.join(sorted(self._touched))} repaired in {took:.2f} s; "
-                f"a new fault remains: {shown}",
-            )
-            self.repairs += 1
-            self._unverified = 0
-            self.state = State.IDLE
             # The diagnosis already stood after the plan: plan for it without waiting for
             # the engine's next message.
-            self._quiet_until = self._diagnosis_t
+            repaired = f"{','.join(sorted(self._touched))} repaired"
+            remains = f"; a new fault remains: {self._shown()}"
+            self._verified(now, repaired, remains, quiet_until=self._diagnosis_t)
         elif now >= self._deadline:
             self._unverified += 1
-            shown = " | ".join("{" + ",".join(d) + "}" for d in self._diagnoses or ())
+            shown = self._shown()
             self._emit(
                 WARN,
                 "verify",
