@@ -159,12 +159,43 @@ class YamlLimit(Exception):
         self.message, self.mark = message, mark
 
 
-def compose_yaml(text: str) -> yaml.Node | None:
+def yaml_error_span(err: yaml.YAMLError, file: str) -> Span | None:
+    """Where PyYAML or libyaml found ``err`` in ``file``, when it says."""
+    mark = getattr(err, "problem_mark", None) or getattr(err, "context_mark", None)
+    if mark is None:
+        return None
+    return Span(file, mark.line + 1, mark.column + 1, mark.line + 1, mark.column + 2)
+
+
+def yaml_error_diagnostic(err: yaml.YAMLError, file: str, code: str) -> Diagnostic:
+    """A text that is not YAML, as the diagnostic ``code`` of its reader, located."""
+    problem = getattr(err, "problem", None) or str(err)
+    return Diagnostic(code, f"not valid YAML: {problem}", yaml_error_span(err, file))
+
+
+def _nesting_refused(err: yaml.YAMLError) -> bool:
+    """libyaml stops at 1,000 open collections: beyond the limits, not malformed text."""
+    return "maximum nesting depth" in str(getattr(err, "problem", None) or "")
+
+
+def compose_yaml(text: str, loader: type | None = None) -> yaml.Node | None:
     """``yaml.compose`` without its recursion, aliases or slow path (limits: RAC009).
 
     libyaml's event parser (when installed) reads megabytes in a fraction of a second and
-    keeps its own stack; the nodes are built here, iteratively, counting the depth.
+    keeps its own stack; the nodes are built here, iteratively, counting the depth.  PyYAML's
+    own parser (``loader=yaml.SafeLoader``) is iterative too: only its composer recurses.
     """
+    try:
+        return _compose_events(text, loader or _YAML_LOADER)
+    except yaml.YAMLError as err:
+        if _nesting_refused(err):
+            message = f"lists and mappings nest more than {MAX_DEPTH} deep"
+            mark = getattr(err, "problem_mark", None) or yaml.Mark("", 0, 0, 0, None, 0)
+            raise YamlLimit(message, mark) from None
+        raise
+
+
+def _compose_events(text: str, loader: type) -> yaml.Node | None:
     root: yaml.Node | None = None
     stack: list[tuple[Any, list[Any]]] = []  # open collections and their items
     documents = 0
@@ -184,7 +215,7 @@ def compose_yaml(text: str) -> yaml.Node | None:
             column = err.start - (text.rfind("\n", 0, err.start) + 1)
             mark = yaml.Mark("", err.start, line, column, None, 0)
             raise YamlLimit("not UTF-8 text: a lone surrogate", mark) from None
-    for event in yaml.parse(text, Loader=_YAML_LOADER):
+    for event in yaml.parse(text, Loader=loader):
         start: Any = event.start_mark  # libyaml's marks or PyYAML's: the same fields
         end: Any = event.end_mark
         if isinstance(event, yaml.DocumentStartEvent):
@@ -224,19 +255,35 @@ def composed_yaml(text: str, file: str) -> yaml.Node | None:
     if len(text) > MAX_YAML_BYTES:
         message = f"the file is {len(text):,} characters long (at most {MAX_YAML_BYTES:,})"
         raise RacError([Diagnostic("RAC009", message, Span(file, 1, 1, 1, 2))])
+    return _within_limits(text, file, None)
+
+
+def _within_limits(text: str, file: str, loader: type | None) -> yaml.Node | None:
     try:
-        return compose_yaml(text)
+        return compose_yaml(text, loader)
     except YamlLimit as err:
         line, column = err.mark.line + 1, err.mark.column + 1
         where = Span(file, line, column, line, column + 1)
-        raise RacError([Diagnostic("RAC009", err.message, where)], text) from None
+        hint = "flatten the document, expand its anchors (see 'Limits' in docs/language.md)"
+        raise RacError([Diagnostic("RAC009", err.message, where, hint=hint)], text) from None
+
+
+def _pure_yaml_limits(text: str, file: str) -> None:
+    """The limits under PyYAML's own (iterative) parser, for a text libyaml refused: PyYAML's
+    recursive composer and constructor may then read it to say what is wrong, and they must
+    not meet a text deeper than the limits (libyaml and PyYAML do not refuse alike).  Raises
+    PyYAML's ``yaml.YAMLError`` when the text is not YAML."""
+    _within_limits(text, file, yaml.SafeLoader)
 
 
 def check_yaml_limits(text: str, file: str) -> None:
     """RAC009 when ``text`` is beyond the YAML limits; a text that is not YAML at all passes,
-    for the caller's own parser to say why."""
-    with contextlib.suppress(yaml.YAMLError):
+    for the caller's own parser (PyYAML's, then safe from recursion) to say why."""
+    try:
         composed_yaml(text, file)
+    except yaml.YAMLError:
+        with contextlib.suppress(yaml.YAMLError):
+            _pure_yaml_limits(text, file)
 
 
 def safe_yaml(text: str, file: str) -> Any:
@@ -251,5 +298,6 @@ def safe_yaml(text: str, file: str) -> Any:
     try:
         composed_yaml(text, file)
     except yaml.YAMLError:
-        return yaml.safe_load(text)
+        _pure_yaml_limits(text, file)  # PyYAML's own error, or RAC009 ...
+        return yaml.safe_load(text)  # ... or a text PyYAML reads and libyaml did not
     return yaml.load(text, Loader=_YAML_LOADER)

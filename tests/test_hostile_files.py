@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 from pathlib import Path
 
 import pytest
@@ -21,6 +22,10 @@ PIONEER = ROOT / "models" / "pioneer.ram"
 # More nesting than the 64 levels the limits allow, and a "billion laughs" file: nine
 # aliases of nine aliases... (9**8 strings once expanded; the file itself is tiny).
 TOO_DEEP = "[" * 100 + "]" * 100 + "\n"
+# Deeper than libyaml's own 1,000 levels: libyaml refused these, and the pure-Python PyYAML
+# racc then read them with to say why recursed (RecursionError, exit 70).
+DEEPER_THAN_LIBYAML = "a: " + "[" * 1000 + "\n"
+BLOCKS_DEEPER_THAN_LIBYAML = "".join("  " * i + "-\n" for i in range(1001))
 LAUGHS = 'a: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]\n' + "".join(
     f"{c}: &{c} [{', '.join([f'*{p}'] * 9)}]\n" for p, c in zip("abcdefg", "bcdefgh", strict=True)
 )
@@ -84,11 +89,16 @@ def test_a_small_file_is_read_without_allocating_the_limit(tmp_path: Path) -> No
     assert peak < 1 << 20
 
 
-@pytest.mark.parametrize("text", [TOO_DEEP, LAUGHS], ids=["too_deep", "aliases"])
+@pytest.mark.parametrize(
+    "text",
+    [TOO_DEEP, LAUGHS, DEEPER_THAN_LIBYAML, BLOCKS_DEEPER_THAN_LIBYAML],
+    ids=["too_deep", "aliases", "deeper_than_libyaml", "blocks_deeper_than_libyaml"],
+)
 def test_yaml_files_read_within_the_limits(
     text: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """Faults files, observers.yaml, tug configurations and placement costs: RAC009, located."""
+    """Faults files, observers.yaml, tug configurations, placement costs, model.yaml and
+    computation graphs: RAC009, located."""
     path = tmp_path / "hostile.yaml"
     path.write_text(text, encoding="utf-8")
     truth = tmp_path / "r.faults.yaml"
@@ -101,15 +111,43 @@ def test_yaml_files_read_within_the_limits(
     assert raised.value.diagnostics[0].span is not None
     commands = [
         ["observe", str(path)],
+        ["repairer", str(TEDUSAR), "--observers", str(path)],
         ["import", "tug", str(path), "-o", str(tmp_path / "imported.ram")],
         ["place", str(TEDUSAR), "--costs", str(path)],
+        ["replay", str(TEDUSAR), str(tmp_path / "r"), "--truth", str(path)],
+        ["diagnose", str(path), "--obs", "ok(a)"],
     ]
     for argv in commands:
         assert main(argv) == 1, argv
         err = capsys.readouterr().err
         assert _codes(err) == {"RAC009"}, (argv, err)
-        assert f"{path}:1:" in err
+        assert re.search(rf"^{re.escape(str(path))}:\d+:\d+: error\[RAC009\]", err, re.M), err
     assert not (tmp_path / "imported.ram").exists()
+
+
+@pytest.mark.parametrize(
+    "text",
+    [TOO_DEEP, DEEPER_THAN_LIBYAML, BLOCKS_DEEPER_THAN_LIBYAML],
+    ids=["too_deep", "deeper_than_libyaml", "blocks_deeper_than_libyaml"],
+)
+def test_yaml_beside_a_run_or_for_learn_within_the_limits(
+    text: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The faults file `evaluate` finds beside a run (RAC009, located), and `learn --graph`
+    (RAC081, naming the file and its line)."""
+    run = tmp_path / "r"
+    assert main(["synth", str(TEDUSAR), "-o", str(run), "--duration", "2", "-q"]) == 0
+    faults = tmp_path / "r.faults.yaml"
+    faults.write_text(text, encoding="utf-8")
+    assert main(["evaluate", "--models", str(TEDUSAR), "--runs", str(run), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert _codes(err) == {"RAC009"}, err
+    assert re.search(rf"^{re.escape(str(faults))}:\d+:\d+: error\[RAC009\]", err, re.M), err
+    graph = tmp_path / "graph.yaml"
+    graph.write_text(text, encoding="utf-8")
+    assert main(["learn", str(run), "--graph", str(graph), "-o", str(tmp_path / "m.ram")]) == 1
+    err = capsys.readouterr().err
+    assert _codes(err) == {"RAC081"} and str(graph) in err and "line " in err, err
 
 
 @pytest.mark.parametrize("output", [".", "", ".."])

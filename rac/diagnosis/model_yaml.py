@@ -23,7 +23,7 @@ import yaml
 
 from rac.diagnosis.theory import ClauseTable, Key, Theory
 from rac.errors import Diagnostic, RacError, Span, did_you_mean
-from rac.limits import MAX_YAML_BYTES, composed_yaml
+from rac.limits import MAX_YAML_BYTES, composed_yaml, yaml_error_diagnostic
 from rac.logic import (
     AB,
     COMPACT_ATOM,
@@ -204,14 +204,7 @@ def _read_entries(text: str, file: str) -> tuple[Entries, Span]:
     try:
         root = composed_yaml(text, file)
     except yaml.YAMLError as err:
-        mark = getattr(err, "problem_mark", None)
-        span = (
-            Span(file, mark.line + 1, mark.column + 1, mark.line + 1, mark.column + 2)
-            if mark
-            else None
-        )
-        problem = getattr(err, "problem", None) or str(err)
-        raise RacError([Diagnostic("RAC006", f"not valid YAML: {problem}", span)], text) from None
+        raise RacError([yaml_error_diagnostic(err, file, "RAC006")], text) from None
     if not isinstance(root, yaml.MappingNode):
         message = "a model file is a mapping with keys " + ", ".join(KEYS)
         if root is None:  # an empty file: still name it

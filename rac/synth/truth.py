@@ -33,7 +33,7 @@ import yaml
 
 from rac.errors import Diagnostic, RacError, Severity, Span, did_you_mean
 from rac.ir import Model
-from rac.limits import check_yaml_limits
+from rac.limits import check_yaml_limits, yaml_error_diagnostic
 from rac.synth.faults import FAULT_KINDS, Fault
 
 SUFFIX = ".faults.yaml"
@@ -248,14 +248,7 @@ def parse_truth(text: str, file: str) -> GroundTruth:
     try:
         root = yaml.compose(text, Loader=yaml.SafeLoader)
     except yaml.YAMLError as err:
-        mark = getattr(err, "problem_mark", None)
-        span = (
-            Span(file, mark.line + 1, mark.column + 1, mark.line + 1, mark.column + 2)
-            if mark
-            else None
-        )
-        problem = getattr(err, "problem", None) or str(err)
-        raise RacError([Diagnostic("RAC085", f"not valid YAML: {problem}", span)], text) from None
+        raise RacError([yaml_error_diagnostic(err, file, "RAC085")], text) from None
     hint = "see 'Ground truth' in docs/learning.md"
     if root is None:
         message = "an empty faults file: it needs robot, duration and faults"
