@@ -176,3 +176,34 @@ def test_properties_csv() -> None:
         with pytest.raises(RacError) as err:
             parse_properties(bad, "p.csv")
         assert err.value.diagnostics[0].code == "RAC082"
+
+
+@pytest.mark.parametrize("ending", ["\r\n", "\r"], ids=["crlf", "cr"])
+def test_properties_csv_line_endings(ending: str) -> None:
+    """learn and replay read a CSV with CR LF or CR-only lines as the LF one (CR-only was
+    "new-line character seen in unquoted field": RAC082 at line 0 in learn, exit 70 in
+    replay)."""
+    from rac.replay.sources import parse_samples
+
+    text = "time,node,cpu,mem\n0,/a,1.5,100\n1,a,2.5,\n2,b,,7\n"
+    other = text.replace("\n", ending)
+    assert parse_properties(other, "p.csv") == parse_properties(text, "p.csv")
+    assert parse_samples(other, "p.csv") == parse_samples(text, "p.csv")
+
+
+def test_properties_csv_that_csv_cannot_read_is_located() -> None:
+    """A field beyond csv's size limit, a quote left open: RAC082 at the line where csv
+    stopped (learn said line 0; replay exited 70)."""
+    from rac.replay.sources import parse_samples
+
+    huge = "time,node,cpu,mem\n0,a,1,1\n1," + "x" * 200_000 + ",1,1\n"
+    for parse in (parse_properties, parse_samples):
+        with pytest.raises(RacError) as err:
+            parse(huge, "p.csv")
+        assert err.value.diagnostics[0].code == "RAC082"
+        assert err.value.diagnostics[0].message.startswith("p.csv:3: not CSV: field larger")
+    quoted = 'time,node,cpu,mem\n0,a,1,1\n1,"b,1,1\n2,c,1,1\n'
+    for parse in (parse_properties, parse_samples):
+        with pytest.raises(RacError) as err:
+            parse(quoted, "p.csv")
+        assert err.value.diagnostics[0].message.startswith("p.csv:3: ")

@@ -183,3 +183,26 @@ def test_plot_without_matplotlib_fails_before_the_replay(
     argv = ["replay", PIONEER, str(short_pioneer_run), "--plot", str(tmp_path / "t.png")]
     assert main(argv) == 1
     assert "error[RAC055]: --plot needs matplotlib" in capsys.readouterr().err
+
+
+def test_a_properties_csv_with_cr_only_line_endings_reads_as_with_lf(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A CSV whose lines end in a lone CR (an old Mac editor): csv saw one line with stray
+    newlines, and replay and evaluate stopped with an internal error (exit 70)."""
+    run = tmp_path / "r"
+    args = ["synth", TEDUSAR, "-o", str(run), "--duration", "30", "-q"]
+    assert main([*args, "--fault", "crash@10+10:hector_mapping"]) == 0
+    lf = tmp_path / "r.properties.csv"
+    timeline = tmp_path / "lf.jsonl"
+    assert main(["replay", TEDUSAR, str(run), "-o", str(timeline), "-q"]) == 0
+    assert '[["hector_mapping"]]' in timeline.read_text()
+    assert main(["evaluate", "--models", TEDUSAR, "--runs", str(run), "--json", "-q"]) == 0
+    expected_scores = capsys.readouterr().out
+    lf.write_bytes(lf.read_bytes().replace(b"\n", b"\r"))
+    cr_timeline = tmp_path / "cr.jsonl"
+    args = ["replay", TEDUSAR, str(run), "--properties", str(lf), "-o", str(cr_timeline), "-q"]
+    assert main(args) == 0
+    assert cr_timeline.read_text() == timeline.read_text()
+    assert main(["evaluate", "--models", TEDUSAR, "--runs", str(run), "--json", "-q"]) == 0
+    assert capsys.readouterr().out == expected_scores

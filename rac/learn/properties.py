@@ -6,7 +6,7 @@ from __future__ import annotations
 import csv
 import io
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,28 +30,45 @@ class PropertyStats:
         return max(self.mean + sigmas * self.stddev, self.maximum)
 
 
-def parse_properties(text: str, path: str) -> dict[str, dict[str, list[float]]]:
-    """node -> property -> samples; empty cells are missing samples."""
+def properties_error(path: str) -> Callable[[int, str], RacError]:
+    """RAC082 at a line of the properties CSV ``path`` (learn and replay read it alike)."""
 
     def bad(line: int, why: str) -> RacError:
         hint = f"the file needs the header {','.join(COLUMNS)} and one sample per line"
         return RacError([Diagnostic("RAC082", f"{path}:{line}: {why}", hint=hint)])
 
-    try:
-        return _read_properties(text, bad)
-    except csv.Error as err:  # a field beyond csv's size limit, a NUL byte, …
-        raise bad(0, f"not CSV: {err}") from None
+    return bad
 
 
-def _read_properties(
-    text: str, bad: Callable[[int, str], RacError]
-) -> dict[str, dict[str, list[float]]]:
-    reader = csv.reader(io.StringIO(text))
-    header = next(reader, None)
+def csv_rows(text: str, bad: Callable[[int, str], RacError]) -> Iterator[tuple[int, list[str]]]:
+    """The rows of a CSV text with the line each starts on.
+
+    Lines end in LF, CR LF or a lone CR alike (universal newlines, as Python reads a text
+    file): csv took a CR-only file for one line holding stray newlines.  What csv cannot
+    read (a field beyond its size limit, a quote left open) is ``bad`` at its line.
+    """
+    reader = csv.reader(io.StringIO(text, newline=None))
+    start = 1
+    while True:
+        try:
+            row = next(reader)
+        except StopIteration:
+            return
+        except csv.Error as err:
+            raise bad(max(reader.line_num, 1), f"not CSV: {err}") from None
+        yield start, row
+        start = reader.line_num + 1
+
+
+def parse_properties(text: str, path: str) -> dict[str, dict[str, list[float]]]:
+    """node -> property -> samples; empty cells are missing samples."""
+    bad = properties_error(path)
+    rows = csv_rows(text, bad)
+    header = next(rows, (1, None))[1]
     if header is None or [h.strip() for h in header] != list(COLUMNS):
         raise bad(1, f"expected the header '{','.join(COLUMNS)}'")
     samples: dict[str, dict[str, list[float]]] = {}
-    for line, row in enumerate(reader, start=2):
+    for line, row in rows:
         if not row or all(not cell.strip() for cell in row):
             continue
         if len(row) != len(COLUMNS):

@@ -17,8 +17,6 @@ the observer core takes, with times in seconds from the start of the recording.
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
@@ -28,6 +26,7 @@ import numpy as np
 
 from rac.errors import Diagnostic, RacError
 from rac.learn.fields import FieldSelector
+from rac.learn.properties import csv_rows, properties_error
 from rac.learn.recording import MAX_SPAN_S, Run, far_off_stamp, message_stream, read_run
 from rac.loader import read_text
 from rac.observe.dobs import violations_first
@@ -227,16 +226,13 @@ def liveness(
 def parse_samples(text: str, path: str) -> list[tuple[float, str, float | None, float | None]]:
     """``time,node,cpu,mem`` rows, sorted by time; empty cpu/mem cells are missing samples."""
 
-    def bad(line: int, why: str) -> RacError:
-        hint = f"the file needs the header {','.join(CSV_COLUMNS)} and one sample per line"
-        return RacError([Diagnostic("RAC082", f"{path}:{line}: {why}", hint=hint)])
-
-    reader = csv.reader(io.StringIO(text))
-    header = next(reader, None)
+    bad = properties_error(path)
+    lines = csv_rows(text, bad)
+    header = next(lines, (1, None))[1]
     if header is None or [h.strip() for h in header] != list(CSV_COLUMNS):
         raise bad(1, f"expected the header '{','.join(CSV_COLUMNS)}'")
     rows: list[tuple[float, str, float | None, float | None]] = []
-    for line, row in enumerate(reader, start=2):
+    for line, row in lines:
         if not row or all(not cell.strip() for cell in row):
             continue
         if len(row) != len(CSV_COLUMNS):
