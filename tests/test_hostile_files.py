@@ -380,6 +380,37 @@ def test_an_mcap_bag_with_a_damaged_length_is_an_input_error(
         assert "error[RAC080]" in err and "ran out of memory" in err
 
 
+def _damaged_run_fails_cleanly(
+    run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], *expected: str
+) -> None:
+    for argv in (
+        ["replay", str(TEDUSAR), str(run)],
+        ["learn", str(run), "-o", str(tmp_path / "x.ram")],
+    ):
+        assert main([*argv, "-q"]) == 1, argv
+        err = capsys.readouterr().err
+        assert "error[RAC080]" in err and all(e in err for e in expected), err
+
+
+def test_a_sqlite3_bag_damaged_inside_a_page_is_an_input_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """One cell pointer of a table page in the middle of the database: SQLite opens it and
+    counts its rows, then meets the damage while the messages are read (apsw.CorruptError
+    was a bug report, exit 70)."""
+    run = tmp_path / "run"
+    args = ["synth", str(TEDUSAR), "-o", str(run), "--duration", "5", "--ros2", "-q"]
+    assert main(args) == 0
+    database = run / "run.db3"
+    data = bytearray(database.read_bytes())
+    page_size = int.from_bytes(data[16:18], "big")
+    pages = len(data) // page_size
+    leaf = next(p for p in range(pages // 2, pages) if data[p * page_size] == 0x0D)
+    data[leaf * page_size + 10] = 0xFF  # the second cell now lies beyond its page
+    database.write_bytes(bytes(data))
+    _damaged_run_fails_cleanly(run, tmp_path, capsys, "run.db3: its SQLite database is damaged")
+
+
 def test_safe_yaml_loads_what_safe_load_loads_and_fails_as_it_does() -> None:
     """Within the limits the document is read by libyaml's loader: the same data as
     ``yaml.safe_load``; a text that is not YAML fails with PyYAML's own error."""

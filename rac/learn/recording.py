@@ -11,6 +11,7 @@ from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import apsw
 import numpy as np
 import numpy.typing as npt
 from rosbags.highlevel import AnyReader, AnyReaderError
@@ -30,8 +31,9 @@ from rac.observe.events import Message
 
 IntArray = npt.NDArray[np.int64]
 _WRAPPING = frozenset({"yaw", "roll"})  # derived angles unwrapped into continuous signals
-# What a damaged bag raises while its messages are read: rosbags' own errors, and the
-# struct/index/assert failures of its parsers meeting corrupt bytes.
+# What a damaged bag raises while its messages are read: rosbags' own errors, the
+# struct/index/assert failures of its parsers meeting corrupt bytes, and SQLite's (through
+# apsw) on a damaged database page met while iterating.
 _DAMAGED = (
     AnyReaderError,
     Rosbag1Error,
@@ -45,6 +47,7 @@ _DAMAGED = (
     EOFError,
     AssertionError,
     struct.error,
+    apsw.Error,
 )
 
 
@@ -148,15 +151,33 @@ def read_run(
             with Reader1(p) as bag:
                 return _read(_WithTypestore(bag, store), str(path), selector, topics)
     except _DAMAGED as err:
-        why = str(err) or f"damaged ({type(err).__name__})"
-        if isinstance(err, KeyError | IndexError | AssertionError) and str(err):
-            # Their text alone is a bare key or index ("'sensor_msgs/msg/Imu'").
-            why = f"damaged or inconsistent ({type(err).__name__}: {err})"
-        raise _fail(str(path), why) from None
+        raise _fail(str(path), _damage(err, p)) from None
     except MemoryError:
         # A damaged length field (an MCAP record's, say) asks the reader for terabytes.
         why = "reading it ran out of memory: a length in it is damaged, or the run is too large"
         raise _fail(str(path), why) from None
+
+
+def _damage(err: Exception, path: Path) -> str:
+    """What a damaged recording's error says, for a user: the storage file it was met in."""
+    why = str(err) or f"damaged ({type(err).__name__})"
+    if isinstance(err, KeyError | IndexError | AssertionError) and str(err):
+        # Their text alone is a bare key or index ("'sensor_msgs/msg/Imu'").
+        why = f"damaged or inconsistent ({type(err).__name__}: {err})"
+    elif isinstance(err, apsw.Error):
+        why = f"its SQLite database is damaged ({err})"
+    if isinstance(err, apsw.Error) and path.is_dir():
+        why = f"{_storage_files(path)}: {why}"
+    return why
+
+
+def _storage_files(directory: Path) -> str:
+    """The storage files of a ROS 2 bag directory, by name."""
+    try:
+        names = [f.name for f in sorted(directory.iterdir()) if f.suffix in (".db3", ".mcap")]
+    except OSError:
+        names = []
+    return ", ".join(names) or "its storage file"
 
 
 class _WithTypestore:
