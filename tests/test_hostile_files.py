@@ -411,6 +411,22 @@ def test_a_sqlite3_bag_damaged_inside_a_page_is_an_input_error(
     _damaged_run_fails_cleanly(run, tmp_path, capsys, "run.db3: its SQLite database is damaged")
 
 
+def test_an_mcap_length_beyond_any_read_is_an_input_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """One byte: the header record's length becomes 2**63 or more, which no read takes
+    (OverflowError from inside rosbags was a bug report, exit 70)."""
+    run = tmp_path / "run"
+    args = ["synth", str(TEDUSAR), "-o", str(run), "--duration", "2", "--storage", "mcap", "-q"]
+    assert main(args) == 0
+    mcap = run / "run.mcap"
+    data = bytearray(mcap.read_bytes())
+    assert data[:9] == b"\x89MCAP0\r\n\x01"  # magic, then the header record's opcode
+    data[16] = 0x80  # the length's most significant byte
+    mcap.write_bytes(bytes(data))
+    _damaged_run_fails_cleanly(run, tmp_path, capsys, "run.mcap: a length in it is damaged")
+
+
 def test_safe_yaml_loads_what_safe_load_loads_and_fails_as_it_does() -> None:
     """Within the limits the document is read by libyaml's loader: the same data as
     ``yaml.safe_load``; a text that is not YAML fails with PyYAML's own error."""

@@ -32,8 +32,9 @@ from rac.observe.events import Message
 IntArray = npt.NDArray[np.int64]
 _WRAPPING = frozenset({"yaw", "roll"})  # derived angles unwrapped into continuous signals
 # What a damaged bag raises while its messages are read: rosbags' own errors, the
-# struct/index/assert failures of its parsers meeting corrupt bytes, and SQLite's (through
-# apsw) on a damaged database page met while iterating.
+# struct/index/assert failures of its parsers meeting corrupt bytes, SQLite's (through apsw)
+# on a damaged database page met while iterating, and OverflowError on a damaged MCAP length
+# too large for a read.
 _DAMAGED = (
     AnyReaderError,
     Rosbag1Error,
@@ -46,6 +47,7 @@ _DAMAGED = (
     IndexError,
     EOFError,
     AssertionError,
+    OverflowError,
     struct.error,
     apsw.Error,
 )
@@ -164,9 +166,11 @@ def _damage(err: Exception, path: Path) -> str:
     if isinstance(err, KeyError | IndexError | AssertionError) and str(err):
         # Their text alone is a bare key or index ("'sensor_msgs/msg/Imu'").
         why = f"damaged or inconsistent ({type(err).__name__}: {err})"
+    elif isinstance(err, OverflowError):  # "cannot fit 'int' into an index-sized integer"
+        why = f"a length in it is damaged (OverflowError: {err})"
     elif isinstance(err, apsw.Error):
         why = f"its SQLite database is damaged ({err})"
-    if isinstance(err, apsw.Error) and path.is_dir():
+    if isinstance(err, OverflowError | apsw.Error) and path.is_dir():
         why = f"{_storage_files(path)}: {why}"
     return why
 
