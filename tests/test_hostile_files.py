@@ -427,6 +427,23 @@ def test_an_mcap_length_beyond_any_read_is_an_input_error(
     _damaged_run_fails_cleanly(run, tmp_path, capsys, "run.mcap: a length in it is damaged")
 
 
+@pytest.mark.parametrize("depth", [100, 600, 1200])
+def test_a_rosbag2_metadata_yaml_nested_deep_is_an_input_error(
+    depth: int, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """rosbags reads metadata.yaml with a recursive YAML reader: nested 600 deep it ran out of
+    stack (RecursionError, exit 70).  RAC080 at the line of the metadata.yaml."""
+    run = tmp_path / "run"
+    assert main(["synth", str(TEDUSAR), "-o", str(run), "--duration", "2", "--ros2", "-q"]) == 0
+    metadata = run / "metadata.yaml"
+    text = metadata.read_text(encoding="utf-8")
+    assert "  custom_data: null\n" in text
+    deep = "[" * depth + "]" * depth
+    metadata.write_text(text.replace("custom_data: null", f"custom_data: {deep}"), "utf-8")
+    line = text[: text.index("custom_data")].count("\n") + 1
+    _damaged_run_fails_cleanly(run, tmp_path, capsys, f"{metadata}:{line}:", "nest more than")
+
+
 def test_safe_yaml_loads_what_safe_load_loads_and_fails_as_it_does() -> None:
     """Within the limits the document is read by libyaml's loader: the same data as
     ``yaml.safe_load``; a text that is not YAML fails with PyYAML's own error."""

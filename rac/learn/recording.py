@@ -27,6 +27,8 @@ from rosbags.typesys.store import Typestore
 from rac.errors import Diagnostic, RacError
 from rac.learn.fields import FieldSelector, FloatArray, layout_of, with_angles
 from rac.learn.raw import row_reader
+from rac.limits import check_yaml_limits
+from rac.loader import read_text
 from rac.observe.events import Message
 
 IntArray = npt.NDArray[np.int64]
@@ -140,6 +142,8 @@ def read_run(
     try:
         if not p.exists():  # inside: a name too long for the file system raises here
             raise _fail(str(path), "no such file or directory")
+        if p.is_dir():
+            _check_metadata(p, str(path))
         # Bags written without message definitions (older ROS 2) fall back to the standard types.
         store = get_typestore(Stores.ROS2_HUMBLE if p.is_dir() else Stores.ROS1_NOETIC)
         try:
@@ -182,6 +186,22 @@ def _storage_files(directory: Path) -> str:
     except OSError:
         names = []
     return ", ".join(names) or "its storage file"
+
+
+def _check_metadata(directory: Path, path: str) -> None:
+    """A ROS 2 bag's metadata.yaml within racc's YAML limits, before rosbags' YAML reader
+    (ruamel.yaml, recursive) reads it: nested 600 deep it ran out of stack.  RAC080 at the
+    line of the metadata.yaml; one that is not YAML is left to rosbags to report."""
+    metadata = directory / "metadata.yaml"
+    if not metadata.is_file():
+        return
+    try:
+        check_yaml_limits(read_text(metadata, "RAC080"), str(metadata))
+    except RacError as err:
+        found = err.diagnostics[0]
+        message = f"{path}: cannot read the recording: its metadata.yaml: {found.message}"
+        hint = "the bag's metadata.yaml is damaged: 'ros2 bag reindex' writes it anew"
+        raise RacError([Diagnostic("RAC080", message, found.span, hint=hint)], err.source) from None
 
 
 class _WithTypestore:
