@@ -2,10 +2,12 @@
 
     python bench/fuzz.py --cases 100000 [--timeout 10] [--jobs 2] [--minutes 10]
 
-Cases are split evenly over the kinds (.ram, ram/1 JSON, model.yaml, --obs literals); each
-runs in a worker process (forked once per batch and again after a hang), which compiles or
-diagnoses it in-process and checks that every output of an accepted model parses back
-(YAML, launch files with an XML parser, PDDL with ``pddl``, model.yaml with ``racc diagnose``).
+Cases are split evenly over the kinds (.ram, ram/1 JSON, model.yaml, --obs literals, damaged
+rosbag2 recordings in sqlite3 and MCAP through learn and replay, YAML nested up to 5,000 deep
+in every YAML file a command reads); each runs in a worker process (forked once per batch and
+again after a hang), which compiles or diagnoses it in-process and checks that every output of
+an accepted model parses back (YAML, launch files with an XML parser, PDDL with ``pddl``,
+model.yaml with ``racc diagnose``).
 A case still running after the time-out is a hang: its worker is killed.  Prints, per kind,
 the counts accepted / clean error / crash / hang, and each crash or hang's seed
 (reproduce with ``tests/fuzz_cases.py``'s ``make_case(kind, seed)``).
@@ -26,7 +28,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
-from fuzz_cases import KINDS, make_case, run_case
+from fuzz_cases import KINDS, make_case, remove_base_bags, run_case
 
 
 def _worker(conn: Connection, jobs: list[tuple[str, int]]) -> None:
@@ -108,9 +110,14 @@ def main() -> int:
     shares = [jobs[j :: args.jobs] for j in range(args.jobs)]
     deadline = time.monotonic() + (args.minutes * 60 if args.minutes else float("inf"))
     began = time.monotonic()
+    for kind in kinds:  # the seed texts and base recordings, made once before the forks
+        make_case(kind, args.seed)
     # One supervising thread per share; each forks its own chain of worker processes.
-    with ThreadPoolExecutor(args.jobs) as pool:
-        parts = list(pool.map(lambda s: _run_share(s, args.timeout, deadline), shares))
+    try:
+        with ThreadPoolExecutor(args.jobs) as pool:
+            parts = list(pool.map(lambda s: _run_share(s, args.timeout, deadline), shares))
+    finally:
+        remove_base_bags()
     results = [r for part in parts for r in part]
     elapsed = time.monotonic() - began
     counts: dict[str, Counter[str]] = {k: Counter() for k in kinds}
