@@ -220,6 +220,9 @@ def check_field_pairs(model: Model) -> Iterator[Diagnostic]:
     """Related and interval pairs name two distinct, declared, published fields."""
     topics = model.topic_by_name()
     publishers = model.publishers()
+    # Each topic's fields once, as a list (for the hints) and a set (the look-up): built per
+    # reference, they made checking n relations on one topic quadratic.
+    field_lists: dict[str, tuple[list[str], frozenset[str]]] = {}
     for a, b, span, what in _field_refs(model):
         # A field against its own integral is no relation either (Algorithm 16).
         if a.path == b.path:
@@ -230,8 +233,11 @@ def check_field_pairs(model: Model) -> Iterator[Diagnostic]:
                 msg = f"{what} names undefined topic '{ref.topic}'"
                 yield _error("RAC012", msg, ref.span, did_you_mean(ref.topic, topics))
                 continue
-            fields = [f.value for f in topic.fields]
-            if ref.field not in fields:
+            if ref.topic not in field_lists:
+                listed = [f.value for f in topic.fields]
+                field_lists[ref.topic] = (listed, frozenset(listed))
+            fields, declared = field_lists[ref.topic]
+            if ref.field not in declared:
                 msg = f"topic '{ref.topic}' has no field '{ref.field}'"
                 hint = did_you_mean(ref.field, fields)
                 if hint is None and fields:
