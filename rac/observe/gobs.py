@@ -9,7 +9,7 @@ defaults and the reasons for them are in docs/observers.md): ``min_window_s`` (2
 ``min_count`` N (10), the shortest window in seconds and in occurrences; ``hold_s`` (0.5 s),
 how long a new verdict must stand before it is reported; ``silence_s`` (0.5 s), the
 shortest silence counted; ``stamps`` (true), whether header stamps may time the topic;
-``agree_s`` (5 s), over how long stamps must agree with arrivals.  With ``min_window_s: 0``,
+``agree_s`` (10 s), over how long stamps must agree with arrivals.  With ``min_window_s: 0``,
 ``min_count: 0``, ``hold_s: 0``, ``silence_s: 0`` and ``stamps: false`` the observer is the
 text's Algorithm 1 with the decisions below.
 
@@ -75,8 +75,8 @@ DEFAULT_MIN_WINDOW_S = 2.0
 DEFAULT_MIN_COUNT = 10
 DEFAULT_HOLD_S = 0.5
 DEFAULT_SILENCE_S = 0.5
-DEFAULT_AGREE_S = 5.0
-AGREE_BLOCKS = 5  # the agreement history, in blocks of agree_s / AGREE_BLOCKS
+DEFAULT_AGREE_S = 10.0
+AGREE_BLOCKS = 2  # the agreement history, in blocks of agree_s / AGREE_BLOCKS
 
 
 class Occurrence(NamedTuple):
