@@ -150,7 +150,7 @@ class ObserverHost:
         try:
             self._keep(self.bank.feed(event))
         except (ArithmeticError, ValueError) as err:  # one bad event must not stop the host
-            self.errors.append(f"{type(event).__name__} at t={event.t:.3f}: {err}")
+            self.errors.append(f"{type(event).__name__} at t={self.wall(event.t):.3f}: {err}")
 
     def _keep(self, verdicts: list[Verdict]) -> None:
         for v in verdicts:
