@@ -109,9 +109,11 @@ class ObserverHost:
             )
 
 
-def change_line(v: Verdict, observer: str) -> str:
-    """A log line for one verdict change, greppable: ``t=… observation not_ok(pose) …``."""
-    return f"t={v.t:.3f} observation {v} (by {observer})"
+def change_line(v: Verdict, observer: str, epoch: float | None = None) -> str:
+    """A log line for one verdict change, greppable: ``t=… observation not_ok(pose) …``;
+    ``epoch``: the change's time in epoch seconds, the time base of every racc node's log
+    (the observers' own clock runs from the host's start)."""
+    return f"t={v.t if epoch is None else epoch:.3f} observation {v} (by {observer})"
 
 
 @dataclass(frozen=True, slots=True)
@@ -135,7 +137,10 @@ class HostLoop:
         host.feed(self.probe.sample(host.clock()))
         host.advance()
         changes = host.take_changes()
-        lines = tuple(change_line(v, host.owner.get(v.atom, "")) for v in changes)
+        host_now = host.clock()  # the verdicts' times, as epoch seconds for the log
+        lines = tuple(
+            change_line(v, host.owner.get(v.atom, ""), now - (host_now - v.t)) for v in changes
+        )
         warnings = tuple(f"an observer failed on {e}" for e in host.take_errors()[:5])
         rows = None
         if changes or now - self._last_publish >= self.republish_s:
