@@ -86,19 +86,23 @@ class Ros1Actuator:
     def start_node(self, node: str) -> str:
         """The entry's command line and environment as roslaunch makes them, run in a
         session of its own."""
-        import roslaunch.nodeprocess
+        # What roslaunch.nodeprocess.create_node_process computes, without its Process
+        # object, which installs signal handlers (and fails off the main thread).
+        import roslaunch.core
+        import roslaunch.node_args
         import rospkg
 
         entry = self._entry(node)
         try:
-            spec = roslaunch.nodeprocess.create_node_process(self.run_id, entry, master_uri())
+            made = roslaunch.node_args.create_local_process_args(entry, entry.machine)
+            env = roslaunch.core.setup_env(entry, entry.machine, master_uri())
         except Exception as err:  # roslaunch raises many kinds for a bad entry
             raise RacError(
                 [Diagnostic("RAC111", f"roslaunch cannot make the command of '{node}': {err}")]
             ) from None
         log_dir = Path(rospkg.get_log_dir(env=os.environ)) / self.run_id
         name = node.strip("/").replace("/", "-")
-        args = [a for a in spec.args if not a.startswith("__log:=")]
+        args = [a for a in made if not a.startswith("__log:=")]
         args.append(f"__log:={log_dir / (name + '-racc.log')}")
         if entry.cwd == "node":
             cwd = os.path.dirname(args[0])
@@ -106,7 +110,7 @@ class Ros1Actuator:
             cwd = os.getcwd()
         else:
             cwd = rospkg.get_ros_home()
-        pid, log = self.detached.start(node, args, spec.env, cwd, log_dir)
+        pid, log = self.detached.start(node, args, env, cwd, log_dir)
         return started_note(pid, log, f"rosnode kill /{node.lstrip('/')}")
 
     def stop_node(self, node: str) -> str:
@@ -115,7 +119,7 @@ class Ros1Actuator:
         node that does not stop is killed by the executor after the step time-out."""
         pid = self.detached.pid(node)
         if pid is not None and self.detached.signal(node, signal.SIGINT):
-            _later(2.0, lambda: self.detached.signal(node, signal.SIGTERM))
+            _later(2.0, lambda: self.detached.signal(node, signal.SIGTERM, only=pid))
             return f"SIGINT to pid {pid} (started by racc)"
         pid = resolve_pid(node)
         said = "not reachable over XML-RPC"

@@ -69,7 +69,9 @@ class Ros2Actuator:
     def stop_node(self, node: str) -> str:
         pid = self.detached.pid(node)
         if pid is not None and self.detached.signal(node, signal.SIGINT):
-            timer = threading.Timer(2.0, lambda: self.detached.signal(node, signal.SIGTERM))
+            timer = threading.Timer(
+                2.0, lambda: self.detached.signal(node, signal.SIGTERM, only=pid)
+            )
             timer.daemon = True
             timer.start()
             return f"SIGINT to pid {pid} (started by racc), SIGTERM in 2 s"

@@ -51,6 +51,8 @@ class Detached:
         log = folder / f"{stem}-{time.strftime('%Y%m%d-%H%M%S')}.log"
         try:
             folder.mkdir(parents=True, exist_ok=True)
+            if cwd:
+                Path(cwd).mkdir(parents=True, exist_ok=True)  # as roslaunch makes ROS_HOME
             with open(log, "ab") as out:
                 proc = subprocess.Popen(
                     list(args),
@@ -74,11 +76,12 @@ class Detached:
             return None
         return proc.pid
 
-    def signal(self, node: str, sig: int) -> bool:
+    def signal(self, node: str, sig: int, only: int | None = None) -> bool:
         """Signal the session started for ``node`` (its whole process group); False when
-        none of ours runs."""
+        none of ours runs, or (``only``) when it is not that pid's any more: a delayed
+        SIGTERM must not hit the node started again since."""
         pid = self.pid(node)
-        if pid is None:
+        if pid is None or (only is not None and pid != only):
             return False
         try:
             os.killpg(pid, sig)
