@@ -477,3 +477,25 @@ def test_a_dry_run_logs_the_plan_once_and_never_acts(theory: Theory) -> None:
     (hold,) = rig.entries("hold")
     assert hold.message.startswith("dry run: would execute plan 1:")
     assert "start_node(jaguar_node)" in hold.message
+
+
+def test_the_command_line_sets_every_rule_and_refuses_bad_values(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from rac.cli import build_parser, main
+    from rac.commands.repairer import settings_from
+
+    given = "repairer m.yaml --advise --confirm 3 --startup-grace 5 --budget 2"
+    args = build_parser("repairer").parse_args(
+        [*given.split(), "--budget-window", "60", "--backoff", "4"]
+    )
+    s = settings_from(args)
+    assert (s.mode, s.confirm_s, s.startup_grace_s) == (Mode.ADVISE, 3.0, 5.0)
+    assert (s.budget, s.budget_window_s, s.backoff_s) == (2, 60.0, 4.0)
+    dry = build_parser("repairer").parse_args(["repairer", "m.yaml", "--dry-run"])
+    assert settings_from(dry).mode is Mode.DRY_RUN
+    assert settings_from(build_parser("repairer").parse_args(["repairer", "m"])) == Settings()
+    # Checked before the model is read or ROS is asked for anything.
+    assert main(["repairer", str(tmp_path / "none.yaml"), "--budget", "0", "--confirm", "-1"]) == 1
+    err = capsys.readouterr().err
+    assert "RAC125" in err and "--budget 0" in err and "--confirm -1" in err
