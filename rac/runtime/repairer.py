@@ -66,6 +66,7 @@ EFFECTS = {  # action -> (predicate of the effect, its polarity)
 }
 RESTORES = {"start_node": "stop_node", "power_up": "shutdown"}  # undoes what the plan did
 NODE_ACTIONS = ("stop_node", "start_node")
+QUICK_CALL_S = 0.05  # how long a tick waits for an actuator call before moving on
 
 
 class Actuator(Protocol):
@@ -158,7 +159,9 @@ class Request:
         self.note: str | None = None
         self.error: str | None = None
         if background:
-            threading.Thread(target=self._run, args=(call,), daemon=True).start()
+            thread = threading.Thread(target=self._run, args=(call,), daemon=True)
+            thread.start()
+            thread.join(QUICK_CALL_S)  # most calls return at once: seen in this tick
         else:
             self._run(call)
 
