@@ -336,6 +336,17 @@ def test_demo_robot_faults_are_diagnosed_repaired_and_verified(live: Live) -> No
                 if level and m.startswith("not_matched")
             ]
         print(f"BiQObs not_matched seen: {flips}")
+
+        # The nodes the repair engine started belong to the robot: they outlive it.
+        started = started_pids(seen, "jaguar_node")
+        assert started, "no start_node line names the pid of the node it started"
+        for proc in runtime:
+            live.stop(proc)
+        time.sleep(2.0)
+        import psutil
+
+        latest = psutil.Process(started[-1])  # restarted for the trip, the last of them
+        assert latest.is_running() and latest.status() != psutil.STATUS_ZOMBIE
     finally:
         for proc in runtime:
             live.stop(proc)
