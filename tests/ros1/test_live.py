@@ -564,3 +564,53 @@ def test_stopping_the_robot_before_the_runtime_repairs_nothing(live: Live) -> No
             live.stop(runtime)
         live.stop(demo)
         live.stop_started()
+
+
+def test_a_frozen_node_is_killed_after_the_step_timeout_and_restarted(live: Live) -> None:
+    # A frozen (SIGSTOP) node blocked a repair for 17 s, and the second attempt came 0.1 s
+    # after the first request.  Now the polite stop is given the step time-out (5 s), then
+    # the node is killed (found by its XML-RPC port: it answers nothing), then restarted.
+    import psutil
+
+    seen = live.seen
+    board = free_port()
+    demo, demo_dir, _ = start_demo(live, "demo5", [], board=board)
+    runtime = None
+    frozen: psutil.Process | None = None
+    try:
+        time.sleep(6.0)
+        launched = time.time()
+        runtime = launch_runtime(live, demo_dir, board)
+        observed = seen.wait(everything_observed(seen, launched, live.quick_atoms), 45)
+        assert observed is not None, "the runtime did not come up"
+        time.sleep(3.0)
+        (frozen,) = [
+            p
+            for p in psutil.process_iter(["cmdline"])
+            if "__name:=hokuyo_node" in (p.info["cmdline"] or [])
+            and str(demo_dir) in " ".join(p.info["cmdline"] or [])
+        ]
+        frozen_at = time.time()
+        frozen.suspend()  # SIGSTOP
+        deadline = time.time() + 40
+        while time.time() < deadline and not logged(seen, frozen_at, "start_node", "hokuyo_node"):
+            time.sleep(0.2)
+        with seen.lock:
+            steps = [
+                (round(t - frozen_at, 2), a, m[:70])
+                for t, a, hw, _, m in seen.repair_log
+                if t >= frozen_at and hw == "hokuyo_node"
+            ]
+        print(f"\nfrozen hokuyo_node: {steps}")
+        assert logged(seen, frozen_at, "start_node", "hokuyo_node"), steps
+        asked = next(t for t, a, m in steps if a == "stop_node" and "attempt 1" in m)
+        killed = next(t for t, a, m in steps if a == "stop_node" and "killed" in m)
+        assert 4.9 <= killed - asked <= 7.0, steps  # a full step time-out, then the kill
+        assert not frozen.is_running() or frozen.status() == psutil.STATUS_ZOMBIE
+    finally:
+        if frozen is not None and frozen.is_running():
+            frozen.resume()
+        if runtime is not None:
+            live.stop(runtime)
+        live.stop(demo)
+        live.stop_started()
