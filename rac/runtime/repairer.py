@@ -316,8 +316,14 @@ class RepairExecutor:
 
     # -- the robot as a whole ------------------------------------------------------------
     def _stopping_together(self) -> list[str]:
-        """The nodes that stopped last, each within shutdown_window_s of the one before."""
-        down = sorted((t, n) for n, t in self._went_down.items() if self._running.get(n) is False)
+        """The nodes that stopped last, each within shutdown_window_s of the one before
+        (not those the plan under way stopped itself)."""
+        ours = {s[1] for s in self._acted if s[0] == "stop_node" and len(s) > 1}
+        down = sorted(
+            (t, n)
+            for n, t in self._went_down.items()
+            if self._running.get(n) is False and n not in ours
+        )
         group: list[tuple[float, str]] = []
         for t, n in down:
             if group and t - group[-1][0] > self.settings.shutdown_window_s:

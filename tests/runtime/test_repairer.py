@@ -499,3 +499,19 @@ def test_the_command_line_sets_every_rule_and_refuses_bad_values(
     assert main(["repairer", str(tmp_path / "none.yaml"), "--budget", "0", "--confirm", "-1"]) == 1
     err = capsys.readouterr().err
     assert "RAC125" in err and "--budget 0" in err and "--confirm -1" in err
+
+
+def test_a_node_the_plan_stops_is_not_part_of_a_shutdown(theory: Theory) -> None:
+    # With a share this low, two nodes stopping together would be a shutdown: the one the
+    # plan itself stops does not count.
+    rig = Rig(theory, shutdown_fraction=0.1)
+    rig.healthy()
+    rig.observe("ok(scan)", False)
+    rig.ex.diagnosis((("hokuyo_node",),))
+    assert rig.until("plan", 5.0) is not None
+    rig.run(0.1)
+    assert rig.robot.actions() == [("stop_node", "hokuyo_node")]
+    rig.observe("running(imu_node)", False)  # a crash while hokuyo_node is stopped
+    rig.run(1.0)
+    assert rig.entries("robot") == []
+    assert rig.robot.actions() == [("stop_node", "hokuyo_node"), ("start_node", "hokuyo_node")]
