@@ -12,11 +12,14 @@ from rac.ir import Name, Node
 from rac.learn import holdout
 from rac.learn.correlate import Correlation
 from rac.learn.fields import FieldSelector
-from rac.learn.learner import candidate_signals, learn, tried_pairs
+from rac.learn.graph import Exclusions
+from rac.learn.learner import CPU_FLOOR, _limits, candidate_signals, learn, tried_pairs
 from rac.learn.options import LearnOptions
+from rac.learn.properties import PropertyStats
 from rac.learn.recording import Recording, Run, TopicData, merge_runs, read_recording
 from rac.learn.trends import topic_trends
 from rac.learn.validate import failures
+from rac.runtime.record import graph_yaml
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT.parent / "shared" / "data"
@@ -220,6 +223,65 @@ def test_a_drifting_signal_needs_a_block_of_its_own() -> None:
         _topic("/b", t + 0.01, ("nb",), y=0.02 * t + 1e-4 * np.cos(3 * t)),
     )
     assert frozenset(("/gps.altitude", "/b.y")) not in _learned(rec)
+
+
+# -- exclusions and limits -----------------------------------------------------------------
+
+
+def test_exclusions_leave_out_racc_and_tool_nodes_and_topics() -> None:
+    ex = Exclusions()
+    assert not ex.node("/rostopic_25073_1712")
+    assert not ex.node("/racc_engine")
+    assert not ex.node("/record_1712345")
+    assert not ex.node("rqt_gui_py_node_123")
+    assert not ex.node("/rosout")
+    assert ex.node("/jaguar_node") and ex.node("/rosbag_player_node_is_not_record")
+    assert not ex.topic("/diagnosis", ["/jaguar_node"])
+    assert not ex.topic("/board_measurements")
+    assert not ex.topic("/chatter", ["/rostopic_1_2"])
+    assert ex.topic("/chatter", ["/rostopic_1_2", "/talker"])
+    assert ex.topic("/diagnostics", ["/jaguar_node"])
+    assert not ex.topic("/diagnostics", ["/racc_engine"])
+    kept = Exclusions(("/rostopic_*", "/board_measurements"))
+    assert kept.node("/rostopic_25073_1712") and kept.topic("/board_measurements")
+
+
+def test_the_recorded_graph_leaves_them_out() -> None:
+    pubs = [
+        ("/pose", ["/jaguar_node"]),
+        ("/diagnosis", ["/racc_engine"]),
+        ("/echo", ["/rostopic_1_2"]),
+    ]
+    subs = [("/pose", ["/rostopic_1_2", "/hector_mapping"]), ("/board_measurements", ["/x"])]
+    text = graph_yaml(pubs, subs)
+    assert "rostopic" not in text and "racc_engine" not in text and "/diagnosis" not in text
+    assert "/board_measurements" not in text and "/hector_mapping" in text
+    assert "/board_measurements" in graph_yaml(pubs, subs, (), Exclusions(("/board_*",)))
+
+
+def test_learning_leaves_out_racc_topics_and_tool_publishers() -> None:
+    rng = np.random.default_rng(6)
+    t = np.arange(0.0, 30.0, 0.1)
+    rec = _recording(
+        _topic("/pose", t, ("jaguar_node", "rostopic_99_1"), x=_smooth(rng, t.size)),
+        _topic("/diagnosis", t, ("racc_engine",), d=_smooth(rng, t.size)),
+        _topic("/board_measurements", t, ("jaguar_node",), v=_smooth(rng, t.size)),
+    )
+    model = learn(rec, LearnOptions(validate=False)).model
+    assert [t.name.value for t in model.topics] == ["/pose"]
+    assert [n.name.value for n in model.nodes] == ["jaguar_node"]
+    kept = learn(rec, LearnOptions(validate=False, include=("/board_measurements",))).model
+    assert "/board_measurements" in [t.name.value for t in kept.topics]
+
+
+def test_limits_have_a_floor() -> None:
+    idle = [
+        PropertyStats("n", "cpu", 100, 0.002, 0.001, 0.01),
+        PropertyStats("n", "mem", 100, 30e6, 0.0, 30e6),
+    ]
+    node = _limits(Node(Name("n")), idle, 3.0)
+    assert node.limits.cpu == CPU_FLOOR
+    assert node.limits.mem is not None and node.limits.mem >= 1.2 * 30e6
 
 
 # -- the real Jackal bag, split in time ----------------------------------------------------

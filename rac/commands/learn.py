@@ -142,6 +142,17 @@ def register(sub: Any) -> None:
         "the base model does not list): 'ranges', 'header.*', '/scan.ranges'",
     )
     parser.add_argument(
+        "--include",
+        metavar="PATTERN",
+        nargs="+",
+        default=[],
+        help="keep nodes and topics matching these globs, which are left out by default "
+        "without --base: racc's own topics (/diagnosis, /observations, /repair_log, "
+        "/board_measurements, /board_switch) and nodes (/racc_*), ROS's tool nodes "
+        "(/rostopic_*, /rosnode_*, /rosservice_*, /record_*, /rqt*, /rviz*) and /rosout "
+        "(default: none)",
+    )
+    parser.add_argument(
         "--name",
         help="the robot's name when there is no base model (default: the first RUN's stem)",
     )
@@ -216,6 +227,7 @@ def run(args: argparse.Namespace) -> int:
         blocks=args.blocks,
         significance=args.significance,
         name=args.name,
+        include=tuple(args.include),
         all_pairs=args.all_pairs,
     )
     result = learn(recording, options, base=base, graph=graph, properties=properties)

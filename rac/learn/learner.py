@@ -21,7 +21,7 @@ from rac.learn import holdout
 from rac.learn.correlate import Correlation, correlations
 from rac.learn.fields import EULER_FIELDS
 from rac.learn.frequency import RateStats, rate_stats
-from rac.learn.graph import Graph
+from rac.learn.graph import Exclusions, Graph
 from rac.learn.holdout import HeldOut
 from rac.learn.options import LearnOptions
 from rac.learn.properties import PropertyStats
@@ -31,6 +31,10 @@ from rac.learn.trends import Signal, TopicTrends, topic_trends
 from rac.learn.validate import failures
 
 STEADY_RATIO = 4.0  # Δ̄/σ(Δ) of a topic whose samples may be integrated by a running sum
+# Limits' floors: an idle node's samples (0.01 % cpu, a flat memory use) would give a limit
+# that any ordinary burst of work crosses.
+CPU_FLOOR = 5.0  # % of one core
+MEM_MARGIN = 1.2  # times the largest memory sample
 
 
 @dataclass(frozen=True, slots=True)
@@ -132,17 +136,20 @@ def _limits(node: Node, stats: Sequence[PropertyStats], sigmas: float) -> Node:
     notes = []
     if "cpu" in mine:
         s = mine["cpu"]
-        cpu = math.ceil(s.limit(sigmas) * 100) / 100 or 0.01
+        cpu = max(CPU_FLOOR, math.ceil(s.limit(sigmas) * 100) / 100)
         notes.append(f"cpu mean {s.mean:.3g} % σ {s.stddev:.3g} max {s.maximum:.3g} -> {cpu:g} %")
     if "mem" in mine:
         s = mine["mem"]
-        mem = max(1000, math.ceil(s.limit(sigmas) / 1000) * 1000)
+        mem = max(1000, math.ceil(max(s.limit(sigmas), MEM_MARGIN * s.maximum) / 1000) * 1000)
         notes.append(
             f"mem mean {s.mean / 1e6:.4g} MB σ {s.stddev / 1e6:.3g} MB max {s.maximum / 1e6:.4g} MB"
             f" -> {mem / 1e6:g} MB"
         )
     samples = max(s.samples for s in mine.values())
-    comment = f"learned limits from {samples} samples (mean + {sigmas:g}σ, at least the max): "
+    comment = (
+        f"learned limits from {samples} samples (mean + {sigmas:g}σ, at least the max; cpu at "
+        f"least {CPU_FLOOR:g} %, mem at least {MEM_MARGIN:g} × the max): "
+    )
     comment += "; ".join(notes)
     span = node.limits.span
     return replace(node, limits=Limits(cpu, mem, span), comments=(*node.comments, comment))
@@ -193,6 +200,40 @@ def varying_fields(data: TopicData) -> tuple[str, ...]:
         if finite.size and float(finite.max()) > float(finite.min()):
             out.append(name)
     return tuple(out)
+
+
+def _without_tools(
+    recording: Recording, graph: Graph | None, exclusions: Exclusions, notes: list[str]
+) -> tuple[Recording, Graph | None]:
+    """The recording and graph without racc's own topics and nodes and ROS's tool nodes
+    (a recording made while racc or ``rostopic echo`` ran holds them)."""
+    topics = []
+    left_out: set[str] = set()
+    for t in recording.topics:
+        owners = [f"/{p}" for p in t.publishers]
+        if not exclusions.topic(t.name, owners):
+            left_out.add(t.name)
+            continue
+        mine = tuple(p for p in t.publishers if exclusions.node(p))
+        left_out.update(f"/{p}" for p in t.publishers if p not in mine)
+        topics.append(replace(t, publishers=mine) if mine != t.publishers else t)
+    if graph is not None:
+        kept_nodes = []
+        for g in graph.nodes:
+            if not exclusions.node(g.name):
+                left_out.add(f"/{g.name}")
+                continue
+            pubs = tuple(t for t in g.publications if exclusions.topic(t))
+            subs = tuple(t for t in g.subscriptions if exclusions.topic(t))
+            left_out.update(set(g.publications + g.subscriptions) - set(pubs + subs))
+            kept_nodes.append(replace(g, publications=pubs, subscriptions=subs))
+        graph = replace(graph, nodes=tuple(kept_nodes))
+    if left_out:
+        notes.append(
+            "racc's own and ROS's tool topics and nodes left out (--include keeps them): "
+            + ", ".join(sorted(left_out))
+        )
+    return replace(recording, topics=tuple(topics)), graph
 
 
 def _structure(
@@ -510,6 +551,8 @@ def learn(
     """Algorithm 15 over a merged recording; the structure from ``base``, ``graph`` or it."""
     notes: list[str] = []
     undeclared: list[str] = []  # learned, but not declarable for want of a publisher
+    if base is None:
+        recording, graph = _without_tools(recording, graph, Exclusions(options.include), notes)
     nodes, hardware, topics = _structure(recording, base, graph, notes)
     published = {t for n in nodes for t in n.published_topics}
     learned_topics, rates = _learn_rates(topics, recording, published, options, notes, undeclared)

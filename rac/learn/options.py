@@ -25,4 +25,5 @@ class LearnOptions:
     blocks: int = DEFAULT_BLOCKS  # held-out validation over blocks (0: none)
     significance: float = DEFAULT_SIGNIFICANCE  # Holm's family-wise error rate
     name: str | None = None  # the robot's name when there is no base model
+    include: tuple[str, ...] = ()  # keep these racc/tool nodes and topics (globs)
     all_pairs: bool = False  # no tier of plausible pairs: every pair against all pairs
