@@ -118,3 +118,26 @@ def test_board_measurements_feed_the_hardware_observers(tmp_path: Path) -> None:
     states = [e for e in inputs.events if isinstance(e, ChannelState)]
     assert [(s.channel, s.on) for s in states] == [(2, True)] * 5 + [(2, False)] * 5
     assert states[5].t == pytest.approx(5.0)
+
+
+def test_a_synth_trip_is_replayed_and_blamed_on_its_device(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tedusar = str(ROOT / "models" / "tedusar.ram")
+    run = tmp_path / "trip.bag"
+    args = ["synth", tedusar, "-o", str(run), "--duration", "40", "--seed", "2", "-q"]
+    assert main([*args, "--fault", "trip@20+5:hokuyo"]) == 0
+    truth = load_truth(tmp_path / "trip.faults.yaml")
+    assert [(f.kind, f.culprits) for f in truth.faults] == [("trip", ("hokuyo",))]
+    out = tmp_path / "t.jsonl"
+    assert main(["replay", tedusar, str(run), "-o", str(out), "-q"]) == 0
+    timeline = read_timeline(out, truth.duration)
+    assert any(
+        r.literal == "not_on(hokuyo)" and 19.9 <= r.t < 25
+        for r in timeline.records
+        if hasattr(r, "literal")
+    )
+    score = score_run(timeline, truth.faults)
+    assert all(o.reported for o in score.outcomes) and score.false_positives == ()
+    assert main([*args[:3], str(tmp_path / "x.bag"), "--fault", "trip@5:imu"]) == 1
+    assert "no switchable device on a board channel 'imu'" in capsys.readouterr().err

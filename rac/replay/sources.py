@@ -188,7 +188,8 @@ def _board_states(path: str, start: float) -> Iterable[ChannelState]:
     out: list[ChannelState] = []
     for t, statuses in _status_arrays(path, BOARD_TOPIC, start):
         for status in statuses:
-            state = row_channel(row_from_status(status), t)
+            # The board may report before the first model message: that is the start.
+            state = row_channel(row_from_status(status), max(t, 0.0))
             if state is not None:
                 out.append(state)
     return out
