@@ -236,6 +236,7 @@ def test_exclusions_leave_out_racc_and_tool_nodes_and_topics() -> None:
     assert not ex.node("rqt_gui_py_node_123")
     assert not ex.node("/rosout")
     assert ex.node("/jaguar_node") and ex.node("/rosbag_player_node_is_not_record")
+    assert ex.node("/rviz")  # an operator's visualisation may be in the model (tedusar)
     assert not ex.topic("/diagnosis", ["/jaguar_node"])
     assert not ex.topic("/board_measurements")
     assert not ex.topic("/chatter", ["/rostopic_1_2"])

@@ -149,7 +149,7 @@ def register(sub: Any) -> None:
         help="keep nodes and topics matching these globs, which are left out by default "
         "without --base: racc's own topics (/diagnosis, /observations, /repair_log, "
         "/board_measurements, /board_switch) and nodes (/racc_*), ROS's tool nodes "
-        "(/rostopic_*, /rosnode_*, /rosservice_*, /record_*, /rqt*, /rviz*) and /rosout "
+        "(/rostopic_*, /rosnode_*, /rosservice_*, /record_*, /rqt*) and /rosout "
         "(default: none)",
     )
     parser.add_argument(

@@ -50,7 +50,7 @@ def register(sub: Any) -> None:
         help="also record nodes and topics matching these globs, which are left out by "
         "default: racc's own topics (/diagnosis, /observations, /repair_log, "
         "/board_measurements, /board_switch) and nodes (/racc_*), ROS's tool nodes "
-        "(/rostopic_*, /rosnode_*, /rosservice_*, /record_*, /rqt*, /rviz*) and /rosout "
+        "(/rostopic_*, /rosnode_*, /rosservice_*, /record_*, /rqt*) and /rosout "
         "(default: none)",
     )
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing")

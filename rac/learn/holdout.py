@@ -41,7 +41,7 @@ from rac.learn.recording import Recording, TopicData
 from rac.learn.trends import CONSTANT, DECREASING, INCREASING, Signal, TopicTrends, topic_trends
 
 DRIFT_RUNS = 6  # a signal with fewer trend runs than this in a block drifts
-RATE_MARGIN = 1.5  # the band covers 1.5 times the largest held-out deviation ...
+RATE_MARGIN = 2.0  # the band covers twice the largest held-out deviation ...
 RATE_FLOOR = 0.05  # ... and at least 5 % of the mean interval
 MIN_RANGE_SHARE = 0.1  # a heading quadrant is judged when it holds this share of the checks
 MIN_RANGE_CHECKS = 200  # ... and at least this many checks
