@@ -55,6 +55,8 @@ def _all_fields(path: Path) -> Recording:
 def test_ros1_connections_name_the_publishing_node(clean_bag: Path) -> None:
     model = load_model(TEDUSAR)
     expected = {t: f"/{nodes[0]}" for t, nodes in model.publishers().items()}
+    # The board's measurements, as racc's board client publishes them (devices on channels).
+    expected["/board_measurements"] = "/racc_board_client"
     with Reader1(clean_bag) as reader:
         found = {c.topic: getattr(c.ext, "callerid", None) for c in reader.connections}
     assert found == expected

@@ -15,10 +15,12 @@ from rac.commands.common import add_command, count, load_checked, write_file_ato
 from rac.fmt import format_model
 from rac.learn.options import (
     DEFAULT_ALPHA,
+    DEFAULT_BLOCKS,
     DEFAULT_MIN_LIFT,
     DEFAULT_OCCURRENCES,
     DEFAULT_Q,
     DEFAULT_SIGMAS,
+    DEFAULT_SIGNIFICANCE,
 )
 from rac.loader import read_text
 from rac.pipeline import compile_model
@@ -95,6 +97,30 @@ def register(sub: Any) -> None:
         "training runs themselves (default: drop them, with a comment)",
     )
     parser.add_argument(
+        "--blocks",
+        metavar="K",
+        type=int,
+        default=DEFAULT_BLOCKS,
+        help="held-out validation: cut a single training run into K time blocks (several "
+        "runs: one block per run) and keep only the relations and rate bands that hold on "
+        "blocks they were not fitted on; 0 turns it off (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--significance",
+        metavar="A",
+        type=float,
+        default=DEFAULT_SIGNIFICANCE,
+        help="held-out validation: family-wise error rate of Holm's correction over every "
+        "pair tried (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--all-pairs",
+        action="store_true",
+        help="held-out validation: judge every pair against the number of all pairs tried "
+        "(default: pairs along the data flow of --base or --graph and pairs of the same "
+        "quantity, such as yaw with yaw, are judged first, against their own number)",
+    )
+    parser.add_argument(
         "--properties",
         metavar="CSV",
         help="node samples, a CSV with the header time,node,cpu,mem (cpu %%, mem bytes); without "
@@ -114,6 +140,17 @@ def register(sub: Any) -> None:
         default=[],
         help="also use fields matching these glob patterns (arrays, header fields, fields "
         "the base model does not list): 'ranges', 'header.*', '/scan.ranges'",
+    )
+    parser.add_argument(
+        "--include",
+        metavar="PATTERN",
+        nargs="+",
+        default=[],
+        help="keep nodes and topics matching these globs, which are left out by default "
+        "without --base: racc's own topics (/diagnosis, /observations, /repair_log, "
+        "/board_measurements, /board_switch) and nodes (/racc_*), ROS's tool nodes "
+        "(/rostopic_*, /rosnode_*, /rosservice_*, /record_*, /rqt*) and /rosout "
+        "(default: none)",
     )
     parser.add_argument(
         "--name",
@@ -138,6 +175,10 @@ def _check_options(args: argparse.Namespace) -> None:
         problems.append("--alpha must be above 0")
     if not 0 <= args.q < 1:
         problems.append("-Q must be in [0, 1)")
+    if args.blocks < 0 or args.blocks == 1:
+        problems.append("--blocks must be 0 (off) or at least 2")
+    if not 0 < args.significance < 1:
+        problems.append("--significance must be in (0, 1)")
     if args.occurrences < 2:
         problems.append("--occurrences must be at least 2")
     if args.sigmas < 0:
@@ -183,7 +224,11 @@ def run(args: argparse.Namespace) -> int:
         sigmas=args.sigmas,
         integrate=not args.no_integrated,
         validate=not args.no_validate,
+        blocks=args.blocks,
+        significance=args.significance,
         name=args.name,
+        include=tuple(args.include),
+        all_pairs=args.all_pairs,
     )
     result = learn(recording, options, base=base, graph=graph, properties=properties)
     compile_model(result.model)  # the learned model must compile; a failure here is a bug

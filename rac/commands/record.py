@@ -42,6 +42,17 @@ def register(sub: Any) -> None:
     parser.add_argument(
         "--graph", metavar="YAML", help="where the computation graph goes (default: RUN.graph.yaml)"
     )
+    parser.add_argument(
+        "--include",
+        metavar="PATTERN",
+        nargs="+",
+        default=[],
+        help="also record nodes and topics matching these globs, which are left out by "
+        "default: racc's own topics (/diagnosis, /observations, /repair_log, "
+        "/board_measurements, /board_switch) and nodes (/racc_*), ROS's tool nodes "
+        "(/rostopic_*, /rosnode_*, /rosservice_*, /record_*, /rqt*) and /rosout "
+        "(default: none)",
+    )
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing")
     add_ros_option(parser)
     parser.set_defaults(run=run)
@@ -61,7 +72,10 @@ def run(args: argparse.Namespace) -> int:
         from rac.ros1.record import run_record
 
         check_master()
-    messages, topics = run_record(bag, csv, graph, args.duration)
+    from rac.learn.graph import Exclusions
+
+    exclusions = Exclusions(tuple(args.include))
+    messages, topics = run_record(bag, csv, graph, args.duration, exclusions=exclusions)
     if not args.quiet:
         print(f"recorded {messages} messages on {topics} topics into {bag}")
         print(f"  wrote {csv}\n  wrote {graph}")

@@ -102,8 +102,8 @@ def register(sub: Any) -> None:
         action="append",
         default=[],
         type=fault_arg,
-        help="inject a fault of KIND (slip, crash, freq, cpu, mem) at T s for D s (default: to "
-        "the end) into the node or topic TARGET (repeatable)",
+        help="inject a fault of KIND (slip, crash, freq, cpu, mem, trip) at T s for D s "
+        "(default: to the end) into the node, topic or device TARGET (repeatable)",
     )
     parser.add_argument(
         "--schedule",

@@ -16,6 +16,8 @@ A topic entry may keep ``rosnode info``'s type suffix, ``/pose [nav_msgs/Odometr
 
 from __future__ import annotations
 
+import fnmatch
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -25,6 +27,55 @@ from rac.errors import Diagnostic, RacError
 from rac.limits import MAX_YAML_BYTES, YamlLimit, compose_yaml
 
 INFRASTRUCTURE_TOPICS = frozenset({"/rosout", "/rosout_agg", "/parameter_events", "/clock"})
+# racc's own topics (runtime, board client, repairer): what racc says about the robot.
+RACC_TOPICS = frozenset(
+    {"/diagnosis", "/observations", "/repair_log", "/board_measurements", "/board_switch"}
+)
+# Nodes that are not the robot's: racc's own, and ROS's tools (rostopic echo/hz, rosnode,
+# rosservice, rosbag record, rqt) and rosout, ROS 1's log aggregator.  Not rviz: an
+# operator's visualisation is part of the robot's architecture (tedusar's model has it).
+TOOL_NODES = (
+    "/racc_*",
+    "/rostopic_*",
+    "/rosnode_*",
+    "/rosservice_*",
+    "/record_*",
+    "/rosbag_record*",
+    "/rqt*",
+    "/rosout",
+)
+
+
+@dataclass(frozen=True, slots=True)
+class Exclusions:
+    """What recording and learning leave out of the robot: racc's own topics and nodes and
+    ROS's tool nodes; a topic published only by left-out nodes goes too.  ``include``
+    patterns (globs on node or topic names, ``/rostopic_*``, ``/board_measurements``)
+    keep what they match."""
+
+    include: tuple[str, ...] = ()
+
+    def _included(self, name: str) -> bool:
+        return any(fnmatch.fnmatchcase(name, p) for p in self.include)
+
+    def node(self, name: str) -> bool:
+        """Whether the node is the robot's (``/rostopic_25073_…`` is not)."""
+        full = "/" + name.lstrip("/")
+        if self._included(full) or self._included(full.lstrip("/")):
+            return True
+        return not any(fnmatch.fnmatchcase(full, p) for p in TOOL_NODES)
+
+    def topic(self, name: str, publishers: Iterable[str] = ()) -> bool:
+        """Whether the topic is the robot's: not racc's or ROS's own, and published by a
+        robot node (a topic whose publishers are unknown is kept)."""
+        if self._included(name):
+            return True
+        if name in RACC_TOPICS or name in INFRASTRUCTURE_TOPICS:
+            return False
+        known = list(publishers)
+        return not known or any(self.node(n) for n in known)
+
+
 _NODE_KEYS = {
     "publications": "publications",
     "publishers": "publications",

@@ -17,17 +17,24 @@ from typing import Any
 import numpy as np
 
 from rac.ir import Hardware, Limits, Model, Name, Node, Publication, Related, Topic
-from rac.learn.correlate import correlations
+from rac.learn import holdout
+from rac.learn.correlate import Correlation, correlations
+from rac.learn.fields import EULER_FIELDS
 from rac.learn.frequency import RateStats, rate_stats
-from rac.learn.graph import Graph
+from rac.learn.graph import Exclusions, Graph
+from rac.learn.holdout import HeldOut
 from rac.learn.options import LearnOptions
 from rac.learn.properties import PropertyStats
 from rac.learn.recording import Recording, TopicData
 from rac.learn.relations import LearnedRelation, group_relations
-from rac.learn.trends import topic_trends
+from rac.learn.trends import Signal, TopicTrends, topic_trends
 from rac.learn.validate import failures
 
 STEADY_RATIO = 4.0  # Δ̄/σ(Δ) of a topic whose samples may be integrated by a running sum
+# Limits' floors: an idle node's samples (0.01 % cpu, a flat memory use) would give a limit
+# that any ordinary burst of work crosses.
+CPU_FLOOR = 5.0  # % of one core
+MEM_MARGIN = 1.2  # times the largest memory sample
 
 
 @dataclass(frozen=True, slots=True)
@@ -68,12 +75,35 @@ def _rate_comment(s: RateStats, alpha: float) -> str:
     )
 
 
-def _learned_topic(topic: Topic, stats: RateStats | None, alpha: float) -> Topic:
+def _band(
+    topic: Topic, data: TopicData, stats: RateStats, chosen: Sequence[holdout.Block]
+) -> tuple[float, str]:
+    """The learned rate tolerance: its slow edge lies the largest of σ, the held-out
+    deviation with its margin, and the floor beyond the mean interval; and its comment."""
+    window = topic.window_s if topic.window_s is not None else 10 * stats.mean
+    held = holdout.rate_holdout(data, chosen, window) if chosen else None
+    floor = holdout.RATE_FLOOR * stats.mean
+    deviation = max(stats.stddev, floor)
+    text = f"band: the largest of σ and {holdout.RATE_FLOOR:.0%} of the mean ({_ms(floor)})"
+    if held is not None:
+        deviation = max(deviation, holdout.RATE_MARGIN * held.deviation)
+        text += (
+            f" and {holdout.RATE_MARGIN:g} × the largest held-out deviation of the windowed "
+            f"mean interval ({_ms(held.deviation)} over {held.blocks} blocks)"
+        )
+    return stats.rate_hz - 1.0 / (stats.mean + deviation), f"{text}: ±{_ms(deviation)}"
+
+
+def _learned_topic(
+    topic: Topic, stats: RateStats | None, alpha: float, band: tuple[float, str] | None = None
+) -> Topic:
     """``topic`` with the learned rate and tolerance (or none) and the evidence comment."""
     if stats is None:
         note = "too few messages in the recording to learn a rate"
         return replace(topic, comments=(*topic.comments, note))
     comments = (*topic.comments, _rate_comment(stats, alpha))
+    if stats.regular and band is not None:
+        comments = (*comments, band[1])
     if not stats.regular:
         return replace(
             topic,
@@ -83,7 +113,8 @@ def _learned_topic(topic: Topic, stats: RateStats | None, alpha: float) -> Topic
             mismatch_threshold=None,
             comments=comments,
         )
-    rate, tolerance = _rounded_rate(stats.rate_hz, stats.tolerance_hz)
+    tolerance_hz = band[0] if band is not None else stats.tolerance_hz
+    rate, tolerance = _rounded_rate(stats.rate_hz, tolerance_hz)
     tolerance = min(tolerance, rate * 0.999)
     window = topic.window_s if topic.rate_hz is not None else None
     mismatch = topic.mismatch_threshold if topic.rate_hz is not None else None
@@ -105,17 +136,20 @@ def _limits(node: Node, stats: Sequence[PropertyStats], sigmas: float) -> Node:
     notes = []
     if "cpu" in mine:
         s = mine["cpu"]
-        cpu = math.ceil(s.limit(sigmas) * 100) / 100 or 0.01
+        cpu = max(CPU_FLOOR, math.ceil(s.limit(sigmas) * 100) / 100)
         notes.append(f"cpu mean {s.mean:.3g} % σ {s.stddev:.3g} max {s.maximum:.3g} -> {cpu:g} %")
     if "mem" in mine:
         s = mine["mem"]
-        mem = max(1000, math.ceil(s.limit(sigmas) / 1000) * 1000)
+        mem = max(1000, math.ceil(max(s.limit(sigmas), MEM_MARGIN * s.maximum) / 1000) * 1000)
         notes.append(
             f"mem mean {s.mean / 1e6:.4g} MB σ {s.stddev / 1e6:.3g} MB max {s.maximum / 1e6:.4g} MB"
             f" -> {mem / 1e6:g} MB"
         )
     samples = max(s.samples for s in mine.values())
-    comment = f"learned limits from {samples} samples (mean + {sigmas:g}σ, at least the max): "
+    comment = (
+        f"learned limits from {samples} samples (mean + {sigmas:g}σ, at least the max; cpu at "
+        f"least {CPU_FLOOR:g} %, mem at least {MEM_MARGIN:g} × the max): "
+    )
     comment += "; ".join(notes)
     span = node.limits.span
     return replace(node, limits=Limits(cpu, mem, span), comments=(*node.comments, comment))
@@ -168,6 +202,40 @@ def varying_fields(data: TopicData) -> tuple[str, ...]:
     return tuple(out)
 
 
+def _without_tools(
+    recording: Recording, graph: Graph | None, exclusions: Exclusions, notes: list[str]
+) -> tuple[Recording, Graph | None]:
+    """The recording and graph without racc's own topics and nodes and ROS's tool nodes
+    (a recording made while racc or ``rostopic echo`` ran holds them)."""
+    topics = []
+    left_out: set[str] = set()
+    for t in recording.topics:
+        owners = [f"/{p}" for p in t.publishers]
+        if not exclusions.topic(t.name, owners):
+            left_out.add(t.name)
+            continue
+        mine = tuple(p for p in t.publishers if exclusions.node(p))
+        left_out.update(f"/{p}" for p in t.publishers if p not in mine)
+        topics.append(replace(t, publishers=mine) if mine != t.publishers else t)
+    if graph is not None:
+        kept_nodes = []
+        for g in graph.nodes:
+            if not exclusions.node(g.name):
+                left_out.add(f"/{g.name}")
+                continue
+            pubs = tuple(t for t in g.publications if exclusions.topic(t))
+            subs = tuple(t for t in g.subscriptions if exclusions.topic(t))
+            left_out.update(set(g.publications + g.subscriptions) - set(pubs + subs))
+            kept_nodes.append(replace(g, publications=pubs, subscriptions=subs))
+        graph = replace(graph, nodes=tuple(kept_nodes))
+    if left_out:
+        notes.append(
+            "racc's own and ROS's tool topics and nodes left out (--include keeps them): "
+            + ", ".join(sorted(left_out))
+        )
+    return replace(recording, topics=tuple(topics)), graph
+
+
 def _structure(
     recording: Recording, base: Model | None, graph: Graph | None, notes: list[str]
 ) -> tuple[list[Node], list[Hardware], list[Topic]]:
@@ -215,6 +283,7 @@ def _learn_rates(
     recorded = recording.topic_by_name()
     rates: list[RateStats] = []
     learned_topics: list[Topic] = []
+    chosen = holdout.blocks(recording, options.blocks)
     for topic in topics:
         data = recorded.get(topic.name.value)
         if data is None:
@@ -225,7 +294,8 @@ def _learn_rates(
         stats = rate_stats(data, options.alpha)
         if stats is not None:
             rates.append(stats)
-        learned = _learned_topic(topic, stats, options.alpha)
+        band = _band(topic, data, stats, chosen) if stats is not None and stats.regular else None
+        learned = _learned_topic(topic, stats, options.alpha, band)
         if learned.rate_hz is not None and topic.name.value not in published:
             # Only a published topic can be declared regular: ok(t) needs a clause.
             undeclared.append(
@@ -251,12 +321,15 @@ def _learn_relations(
     undeclared: list[str],
     regular: set[str],
     notes: list[str],
-) -> tuple[list[Related], list[LearnedRelation]]:
+    flow: set[frozenset[str]],
+) -> tuple[list[Related], list[LearnedRelation], list[str]]:
     """Qualitative correlations (Algorithms 16 and 17) between the declared topics, as
-    ``relate`` declarations where both topics have a publisher."""
+    ``relate`` declarations where both topics have a publisher; held out on blocks of the
+    recording (:mod:`rac.learn.holdout`) unless ``options.blocks`` is 0.  Also the
+    comments naming the candidates held-out validation rejected."""
     trends = []
     for data in (t for t in recording.topics if t.name in declared):
-        topic_trend = topic_trends(data, options.occurrences, options.integrate)
+        topic_trend = topic_trends(candidate_signals(data), options.occurrences, options.integrate)
         if topic_trend is not None:
             trends.append(topic_trend)
     if len({s for t in trends for s in t.signals if not s.integrated}) < 2:
@@ -264,9 +337,20 @@ def _learn_relations(
             "no two varying numeric signals are left to relate, so no relations are learned "
             "(are the topics' fields constant, or excluded by the base model's field lists?)"
         )
+    found = correlations(trends, options.q, options.min_lift)
+    held: dict[tuple[Signal, Signal], HeldOut] = {}
+    rejected: list[str] = []
+    chosen = holdout.blocks(recording, options.blocks)
+    if found and chosen:
+        found, held, rejected = _held_out(recording, trends, found, chosen, options, flow)
+    elif found and options.blocks:
+        notes.append(
+            "the recording is too short to cut into blocks: relations are not held out "
+            f"(blocks of at least {holdout.MIN_BLOCK_S:g} s are needed)"
+        )
     related: list[Related] = []
     kept: list[LearnedRelation] = []
-    for rel in group_relations(correlations(trends, options.q, options.min_lift)):
+    for rel in group_relations(found):
         if not {rel.a[0], rel.b[0]} <= declarable:
             undeclared.append(
                 f"{rel.declaration()}: {rel.evidence()} (a topic has no known publisher)"
@@ -282,9 +366,169 @@ def _learn_relations(
                 "steady rate, whose running sum does not follow the integral)"
             )
             continue
-        related.append(Related(*sides, comments=(rel.evidence(),)))
+        evidence = [rel.evidence()]
+        verdict = held.get((rel.best.a, rel.best.b))
+        if verdict is not None:
+            evidence.append(verdict.comment())
+        related.append(Related(*sides, comments=tuple(evidence)))
         kept.append(rel)
-    return related, kept
+    return related, kept, rejected
+
+
+def candidate_signals(data: TopicData) -> TopicData:
+    """``data`` without the raw components of an orientation quaternion when its derived
+    angles are there: a component's trend depends on the heading (cos(yaw/2) rises in one
+    half turn and falls in the other), the angles' do not."""
+    if not set(EULER_FIELDS) & set(data.fields):
+        return data
+    drop = {f for f in data.fields if quaternion_component(f)}
+    if not drop:
+        return data
+    rows = [i for i, f in enumerate(data.fields) if f not in drop]
+    return replace(data, fields=tuple(data.fields[i] for i in rows), values=data.values[rows])
+
+
+def quaternion_component(field_name: str) -> bool:
+    """``orientation.w``, ``pose.pose.orientation.z``, …: a component of an orientation."""
+    prefix, _, last = field_name.rpartition(".")
+    return last in ("x", "y", "z", "w") and prefix.rsplit(".", 1)[-1] == "orientation"
+
+
+def _held_out(
+    recording: Recording,
+    trends: Sequence[TopicTrends],
+    found: list[Correlation],
+    chosen: Sequence[holdout.Block],
+    options: LearnOptions,
+    flow: set[frozenset[str]],
+) -> tuple[list[Correlation], dict[tuple[Signal, Signal], HeldOut], list[str]]:
+    """The correlations that hold on blocks they were not fitted on, their verdicts, and
+    a comment per rejected one."""
+    pairs = [(c.a, c.b) for c in found]
+    evidence = holdout.block_evidence(
+        recording, chosen, pairs, options.occurrences, options.integrate
+    )
+    raw = [
+        holdout.held_out(evidence, i, options.q, options.min_lift, options.significance)
+        for i in range(len(found))
+    ]
+    verdicts = _corrected(found, raw, trends, flow, options)
+    by_topic = {t.topic: t for t in trends}
+    ranges = holdout.heading_quadrants(recording)
+    kept: list[Correlation] = []
+    held: dict[tuple[Signal, Signal], HeldOut] = {}
+    rejected: list[str] = []
+    for c, v in zip(found, verdicts, strict=True):
+        why = v.why_not or holdout.range_dependence(c, by_topic, ranges, options.min_lift)
+        if why:
+            rejected.append(f"not kept: {c.a.text} ~ {c.b.text} ({c.ratio:.2f}): {why}")
+            continue
+        kept.append(c)
+        held[(c.a, c.b)] = v
+    return kept, held, rejected
+
+
+def _corrected(
+    found: Sequence[Correlation],
+    raw: Sequence[HeldOut],
+    trends: Sequence[TopicTrends],
+    flow: set[frozenset[str]],
+    options: LearnOptions,
+) -> list[HeldOut]:
+    """Holm's correction, in two tiers unless ``options.all_pairs``: the physically
+    plausible pairs (:func:`plausible`) against the number of plausible pairs tried, the
+    others against the number of all pairs tried."""
+    if options.all_pairs:
+        return holdout.with_holm(raw, tried_pairs(trends), options.significance)
+    tiers = [plausible(c.a, c.b, flow) for c in found]
+    out: list[HeldOut | None] = [None] * len(found)
+    for tier, family in ((True, plausible_pairs(trends, flow)), (False, tried_pairs(trends))):
+        chosen = [i for i, t in enumerate(tiers) if t is tier]
+        corrected = holdout.with_holm([raw[i] for i in chosen], family, options.significance)
+        for i, v in zip(chosen, corrected, strict=True):
+            out[i] = v
+    return [v for v in out if v is not None]
+
+
+_AXES = {"yaw": "z", "pitch": "y", "roll": "x"}
+
+
+def _leaf(field_name: str) -> str:
+    """The quantity a field names: its last two path components (``linear.x``)."""
+    return ".".join(field_name.split(".")[-2:])
+
+
+def _rate_axis(signal: Signal) -> str | None:
+    """The axis of an integrated angular rate (``I(angular_velocity.z)``: z)."""
+    parts = signal.field.split(".")
+    if signal.integrated and len(parts) >= 2 and parts[-2].startswith("angular"):
+        return parts[-1]
+    return None
+
+
+def plausible(a: Signal, b: Signal, flow: set[frozenset[str]]) -> bool:
+    """A pair worth trying first: its topics lie along the data flow (one feeds the
+    other's publisher, or one node publishes both), or it pairs the same quantity (yaw with
+    yaw, ``linear.x`` with ``linear.x``, an angle with its integrated rate)."""
+    if a.topic != b.topic and frozenset((a.topic, b.topic)) in flow:
+        return True
+    if not a.integrated and not b.integrated:
+        return _leaf(a.field) == _leaf(b.field)
+    for angle, rate in ((a, b), (b, a)):
+        axis = _rate_axis(rate)
+        if axis is not None and not angle.integrated and _AXES.get(angle.field) == axis:
+            return True
+    return False
+
+
+def data_flow(nodes: Sequence[Node]) -> set[frozenset[str]]:
+    """Topic pairs along the data flow: an input with the publication it affects (all the
+    node's subscriptions when the publication names none), and two publications of one
+    node."""
+    out: set[frozenset[str]] = set()
+    for node in nodes:
+        published = [p.topic.value for p in node.publishes]
+        for p in node.publishes:
+            inputs = p.affected_by or node.subscribes
+            out.update(frozenset((i.value, p.topic.value)) for i in inputs)
+        out.update(frozenset((x, y)) for x in published for y in published if x != y)
+    return out
+
+
+def plausible_pairs(trends: Sequence[TopicTrends], flow: set[frozenset[str]]) -> int:
+    """How many plausible pairs the search tries, counted generously (a pair both along
+    the flow and of one quantity counts twice), so that the correction stays on the safe
+    side."""
+    raw = {t.topic: sum(1 for s in t.signals if not s.integrated) for t in trends}
+    integrated = {t.topic: sum(1 for s in t.signals if s.integrated) for t in trends}
+    count = 0
+    names = sorted(raw)
+    for i, x in enumerate(names):
+        for y in names[i + 1 :]:
+            if frozenset((x, y)) in flow:
+                count += raw[x] * raw[y] + raw[x] * integrated[y] + integrated[x] * raw[y]
+    leaves: dict[str, int] = {}
+    angles: dict[str, int] = {}
+    rates: dict[str, int] = {}
+    for t in trends:
+        for sig in t.signals:
+            if not sig.integrated:
+                leaves[_leaf(sig.field)] = leaves.get(_leaf(sig.field), 0) + 1
+                if sig.field in _AXES:
+                    angles[_AXES[sig.field]] = angles.get(_AXES[sig.field], 0) + 1
+            elif (axis := _rate_axis(sig)) is not None:
+                rates[axis] = rates.get(axis, 0) + 1
+    count += sum(n * (n - 1) // 2 for n in leaves.values())
+    count += sum(n * rates.get(axis, 0) for axis, n in angles.items())
+    return max(count, 1)
+
+
+def tried_pairs(trends: Sequence[TopicTrends]) -> int:
+    """How many signal pairs the search tries (the family Holm's correction counts)."""
+    raw = sum(sum(1 for s in t.signals if not s.integrated) for t in trends)
+    integrated = sum(sum(1 for s in t.signals if s.integrated) for t in trends)
+    # Both raw, or one side integrated: never both.
+    return raw * (raw - 1) // 2 + raw * integrated
 
 
 def _robot_name(recording: Recording, base: Model | None, options: LearnOptions) -> str:
@@ -307,6 +551,8 @@ def learn(
     """Algorithm 15 over a merged recording; the structure from ``base``, ``graph`` or it."""
     notes: list[str] = []
     undeclared: list[str] = []  # learned, but not declarable for want of a publisher
+    if base is None:
+        recording, graph = _without_tools(recording, graph, Exclusions(options.include), notes)
     nodes, hardware, topics = _structure(recording, base, graph, notes)
     published = {t for n in nodes for t in n.published_topics}
     learned_topics, rates = _learn_rates(topics, recording, published, options, notes, undeclared)
@@ -320,8 +566,15 @@ def learn(
     # integral only when the samples come evenly.
     steady = {r.topic for r in rates if r.ratio >= STEADY_RATIO}
     regular = {t.name.value for t in learned_topics if t.regular} & steady
-    related, kept = _learn_relations(
-        recording, options, declared, published & declared, undeclared, regular, notes
+    related, kept, rejected = _learn_relations(
+        recording,
+        options,
+        declared,
+        published & declared,
+        undeclared,
+        regular,
+        notes,
+        data_flow(nodes),
     )
     if base is not None:
         _note_dropped_relations(base, related, options, notes)
@@ -337,6 +590,7 @@ def learn(
         "review every learned value before use.",
     ]
     trailing = ["learned but not declared:", *undeclared] if undeclared else []
+    trailing += rejected
     model = Model(
         name=Name(_robot_name(recording, base, options)),
         hardware=tuple(hardware),
@@ -389,7 +643,8 @@ def _without_false_alarms(model: Model, recording: Recording, notes: list[str]) 
     related = tuple(r for i, r in enumerate(model.related) if i not in bad_relations)
     trailing = [
         f"dropped: relate {model.related[f.index].a.text} ~ {model.related[f.index].b.text} "
-        f"(its observer read not matched on {f.run} at {f.at:.1f} s)"
+        f"(its observer {'came near' if f.near else 'read'} not matched on {f.run} at "
+        f"{f.at:.1f} s)"
         for f in failed
         if f.kind == "BiQObs"
     ]

@@ -9,6 +9,8 @@ DEFAULT_Q = 0.5
 DEFAULT_OCCURRENCES = 10  # C: occurrences per regression window (also ω = c/freq, Eq. 5.3)
 DEFAULT_SIGMAS = 3.0
 DEFAULT_MIN_LIFT = 0.05
+DEFAULT_BLOCKS = 4  # time blocks of one training run for held-out validation
+DEFAULT_SIGNIFICANCE = 0.05  # family-wise error rate (Holm) of the held-out tests
 
 
 @dataclass(frozen=True, slots=True)
@@ -20,4 +22,8 @@ class LearnOptions:
     sigmas: float = DEFAULT_SIGMAS  # property limit = mean + k·σ (at least the largest sample)
     integrate: bool = True  # also correlate integrated signals I(M) (Algorithm 16)
     validate: bool = True  # drop observers that report a fault on the training runs
+    blocks: int = DEFAULT_BLOCKS  # held-out validation over blocks (0: none)
+    significance: float = DEFAULT_SIGNIFICANCE  # Holm's family-wise error rate
     name: str | None = None  # the robot's name when there is no base model
+    include: tuple[str, ...] = ()  # keep these racc/tool nodes and topics (globs)
+    all_pairs: bool = False  # no tier of plausible pairs: every pair against all pairs

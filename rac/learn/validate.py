@@ -5,7 +5,10 @@ training runs are replayed through the learned model's frequency (GObs) and bina
 qualitative (BiQObs) observers, exactly as ``racc replay`` runs them; a relation whose
 observer reads "not matched", or a rate whose observer reads "not ok", anywhere in a
 training run is a false alarm waiting to happen and is dropped (with a comment saying
-why).  Each run is replayed on its own, so no observer sees the seam between two runs.
+why).  So is a relation whose observer came near "not matched": its mismatch count (the θ
+rule) rose above half of θ, so that a next recording, which the learner never saw, needs
+little more to make it flip.  Each run is replayed on its own, so no observer sees the seam
+between two runs.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ from dataclasses import dataclass
 from rac.ir import Model
 from rac.learn.recording import Recording, message_stream
 from rac.observe.base import Observer
+from rac.observe.biqobs import BiQObs
 from rac.observe.build import build_all
 from rac.observe.events import Message
 from rac.passes.observers import ObserverSpec
@@ -29,6 +33,7 @@ class Failure:
     index: int  # the topic's position in model.topics, or the relation's in model.related
     run: str  # the training run it failed on
     at: float  # seconds from that run's start
+    near: bool = False  # it came near a fault (a BiQObs's count above θ/2), not to one
 
 
 def failures(model: Model, recording: Recording) -> tuple[Failure, ...]:
@@ -49,16 +54,23 @@ def failures(model: Model, recording: Recording) -> tuple[Failure, ...]:
         outcome = known[(spec.kind, spec.params)]
         if outcome is not None:
             kind, index = where[str(spec.atoms[0])]
-            found.append(Failure(kind, index, *outcome))
+            found.append(Failure(kind, index, outcome[0], outcome[1], outcome[2]))
     return tuple(sorted(found, key=lambda f: (f.kind, f.index)))
 
 
-_MEMO: dict[int, tuple[Recording, dict[tuple[str, object], tuple[str, float] | None]]] = {}
+Outcome = tuple[str, float, bool]  # run, time, only near a fault
+_MEMO: dict[int, tuple[Recording, dict[tuple[str, object], Outcome | None]]] = {}
 
 
-def _replay(specs: list[ObserverSpec], recording: Recording) -> list[tuple[str, float] | None]:
-    """Per spec, the run and time of its first fault on the recording, or None."""
-    failed: dict[int, tuple[str, float]] = {}
+def _near(obs: Observer) -> bool:
+    """A relation observer whose θ counter stands above half of θ: near "not matched"."""
+    counter = getattr(obs, "_mismatch", None) if isinstance(obs, BiQObs) else None
+    return counter is not None and 2 * counter.count > counter.theta
+
+
+def _replay(specs: list[ObserverSpec], recording: Recording) -> list[Outcome | None]:
+    """Per spec, the run and time of its first fault (or near fault) on the recording."""
+    failed: dict[int, Outcome] = {}
     for segment, run in enumerate(recording.runs):
         # Each observer on its own, dropped once it has failed: most false relations fail
         # early, and the rest of the run need not be replayed for them.
@@ -69,8 +81,12 @@ def _replay(specs: list[ObserverSpec], recording: Recording) -> list[tuple[str, 
                     readers.setdefault(topic, []).append((i, obs))
         for message in _stream(recording, segment, frozenset(readers)):
             for i, obs in readers.get(message.topic, ()):
-                if i not in failed and any(not v.positive for v in obs.feed(message)):
-                    failed[i] = (run.path, message.t)
+                if i in failed:
+                    continue
+                if any(not v.positive for v in obs.feed(message)):
+                    failed[i] = (run.path, message.t, False)
+                elif _near(obs):
+                    failed[i] = (run.path, message.t, True)
     return [failed.get(i) for i in range(len(specs))]
 
 

@@ -40,14 +40,16 @@ def needs_of(models: Sequence[Replayable]) -> Needs:
     fields: dict[str, set[str]] = {}
     nodes: set[str] = set()
     diagnostics = False
+    board = False
     for m in models:
         bank = ObserverBank(m.specs)
+        board = board or bank.needs_board
         for topic, wanted in bank.topic_fields().items():
             fields.setdefault(topic, set()).update(wanted)
         nodes.update(bank.nodes)
         nodes.update(n for n, _ in bank.properties)
         diagnostics = diagnostics or bool(bank.devices)
-    return Needs({t: frozenset(f) for t, f in fields.items()}, frozenset(nodes), diagnostics)
+    return Needs({t: frozenset(f) for t, f in fields.items()}, frozenset(nodes), diagnostics, board)
 
 
 def properties_for(runs: Sequence[str], given: Sequence[str]) -> list[str | None]:

@@ -7,12 +7,16 @@ the observer core takes, with times in seconds from the start of the recording.
   with the fields the observers need (derived ``yaw``/``pitch``/``roll`` included).  A
   message's time is when the bag recorded it (its receive time); where its type begins with
   a ``std_msgs/Header``, it carries the header stamp as well, as on a live robot.
-- ``/diagnostics`` statuses come from the bag when the model has diagnostic observers.
+- ``/diagnostics`` statuses come from the bag when the model has diagnostic observers, and
+  the board's channel states from its ``/board_measurements`` when it has hardware
+  observers (the board client's ``channel N`` statuses, read as the live host reads them).
 - The properties CSV (``time,node,cpu,mem``, the file ``racc synth`` writes and ``racc
   learn`` reads) gives CPU and memory samples, and node liveness: the CSV is taken to
-  sample every node every period P (the median spacing of its sample times); at each tick
-  of P a node with a sample in the last 1.5·P is running, otherwise not.  So a node that
-  leaves no samples for θ periods reads not running, as the node observer's θ allows.
+  sample every node every period P (the median spacing of its sample times); every 0.1 s
+  (the live observer host's period, or P if shorter) from the node's first sample on, a
+  node with a sample in the last 1.5·P is running, otherwise not.  So a node whose samples
+  stop reads not running 1.3 s after its last one (at 2 Hz and θ 5), about as fast as the
+  live host, which sees the process vanish; a node with no sample yet gets no verdict.
   Its ``time`` is the bag's clock in seconds, or seconds from the recording's start when
   the file's first time is smaller than the bag's start.
 """
@@ -39,10 +43,22 @@ from rac.learn.recording import MAX_SPAN_S, Run, far_off_stamp, message_stream, 
 from rac.learn.stamps import stamp_reader
 from rac.loader import read_text
 from rac.observe.dobs import violations_first
-from rac.observe.events import DeviceStatus, Event, Message, NodeSample, PropertySample
+from rac.observe.events import (
+    ChannelState,
+    DeviceStatus,
+    Event,
+    Message,
+    NodeSample,
+    PropertySample,
+)
+from rac.runtime.status import row_channel, row_from_status
 
 DIAGNOSTICS_TOPIC = "/diagnostics"
+BOARD_TOPIC = "/board_measurements"
 LIVENESS_SLACK = 1.5  # a node is running when it has a sample within this many periods
+# Liveness is judged this often, as the observer host samples processes live: a vanished
+# process is definite evidence, and the node observer's θ checks take 0.6 s, not θ periods.
+LIVENESS_STEP_S = 0.1
 CSV_COLUMNS = ("time", "node", "cpu", "mem")
 
 
@@ -53,6 +69,7 @@ class Needs:
     topic_fields: Mapping[str, frozenset[str]]  # every model topic -> fields observers read
     nodes: frozenset[str]  # nodes with a node or property observer
     diagnostics: bool  # any diagnostic observer
+    board: bool = False  # any hardware observer (fed from a recorded /board_measurements)
 
 
 @dataclass(frozen=True, slots=True)
@@ -76,7 +93,7 @@ def properties_beside(run: str | Path) -> Path:
 def load_run(path: str, needs: Needs, properties: str | None) -> RunInputs:
     """Every input a model's observers take from one recorded run."""
     run = _read_topics(path, needs)
-    notes: list[str] = list(_missing_fields(path, run, needs))
+    notes: list[str] = [*_absent_topics(path, run, needs), *_missing_fields(path, run, needs)]
     events: list[Event] = stamped(message_stream(run.topics, run.start), header_stamps(path, needs))
     messages = len(events)
     if needs.diagnostics:
@@ -86,9 +103,20 @@ def load_run(path: str, needs: Needs, properties: str | None) -> RunInputs:
                 f"{path}: no {DIAGNOSTICS_TOPIC} messages; diagnostic observers stay silent"
             )
         events.extend(statuses)
+    if needs.board:
+        states = list(_board_states(path, run.start))
+        if not states:
+            notes.append(
+                f"{path}: no {BOARD_TOPIC} messages; hardware observers stay silent, so the "
+                "devices' power is not checked"
+            )
+        events.extend(states)
     if properties is not None:
-        samples, outside = _properties(properties, run.start, run.end - run.start, needs.nodes)
+        samples, outside, named = _properties(
+            properties, run.start, run.end - run.start, needs.nodes
+        )
         events.extend(samples)
+        notes.extend(_unmatched_nodes(properties, named, needs.nodes))
         if outside:
             noun = "sample" if outside == 1 else "samples"
             notes.append(
@@ -107,6 +135,18 @@ def load_run(path: str, needs: Needs, properties: str | None) -> RunInputs:
     if duration - first > MAX_SPAN_S:  # the topics are bounded already: a /diagnostics stamp
         raise far_off_stamp(path, duration - first)
     return RunInputs(path, run.start, duration, tuple(events), messages, tuple(notes))
+
+
+def _absent_topics(path: str, run: Run, needs: Needs) -> Iterator[str]:
+    """A note naming the model topics the recording lacks: their observers stay silent, so
+    replay cannot say whether they were fine (which is not "no fault")."""
+    recorded = {t.name for t in run.topics}
+    absent = sorted(set(needs.topic_fields) - recorded)
+    if absent:
+        yield (
+            f"{path}: not in the recording, so not checked: {', '.join(absent)} (their "
+            "observers stay silent)"
+        )
 
 
 def _missing_fields(path: str, run: Run, needs: Needs) -> Iterator[str]:
@@ -206,27 +246,47 @@ def _read_topics(path: str, needs: Needs) -> Run:
 
 def _diagnostics(path: str, start: float) -> Iterable[DeviceStatus]:
     """The statuses on /diagnostics (diagnostic_msgs/DiagnosticArray) of a recording."""
+    out: list[DeviceStatus] = []
+    for t, statuses in _status_arrays(path, DIAGNOSTICS_TOPIC, start):
+        array = [
+            DeviceStatus(t, str(status.name), str(status.hardware_id), _level(status.level))
+            for status in statuses
+        ]
+        out.extend(violations_first(array))  # one check per array, at its worst
+    return out
+
+
+def _board_states(path: str, start: float) -> Iterable[ChannelState]:
+    """The channel states on /board_measurements (the board client's DiagnosticArray, one
+    ``channel N`` status per channel) of a recording, as the live observer host reads them."""
+    out: list[ChannelState] = []
+    for t, statuses in _status_arrays(path, BOARD_TOPIC, start):
+        for status in statuses:
+            # The board may report before the first model message: that is the start.
+            state = row_channel(row_from_status(status), max(t, 0.0))
+            if state is not None:
+                out.append(state)
+    return out
+
+
+def _status_arrays(path: str, topic: str, start: float) -> list[tuple[float, list[Any]]]:
+    """The statuses of each diagnostic_msgs/DiagnosticArray on ``topic``, with its time."""
     from rosbags.highlevel import AnyReader
     from rosbags.typesys import Stores, get_typestore
 
     p = Path(path)
     store = get_typestore(Stores.ROS2_HUMBLE if p.is_dir() else Stores.ROS1_NOETIC)
-    out: list[DeviceStatus] = []
+    out: list[tuple[float, list[Any]]] = []
     try:
         with AnyReader([p], default_typestore=store) as reader:
-            conns = [c for c in reader.connections if c.topic == DIAGNOSTICS_TOPIC]
+            conns = [c for c in reader.connections if c.topic == topic]
             if not conns:  # an empty list would mean every connection to rosbags
                 return out
             for conn, stamp, raw in reader.messages(connections=conns):
                 msg = reader.deserialize(raw, conn.msgtype)
-                t = stamp * 1e-9 - start
-                array = [
-                    DeviceStatus(t, str(status.name), str(status.hardware_id), _level(status.level))
-                    for status in getattr(msg, "status", ())
-                ]
-                out.extend(violations_first(array))  # one check per array, at its worst
+                out.append((stamp * 1e-9 - start, list(getattr(msg, "status", ()))))
     except Exception as err:  # rosbags raises many kinds on damaged files
-        message = f"{path}: cannot read {DIAGNOSTICS_TOPIC}: {err or type(err).__name__}"
+        message = f"{path}: cannot read {topic}: {err or type(err).__name__}"
         raise RacError([Diagnostic("RAC080", message)]) from None
     return out
 
@@ -242,14 +302,33 @@ def _level(value: object) -> int:
 SAMPLE_SLACK_S = 60.0
 
 
+def _unmatched_nodes(path: str, named: frozenset[str], nodes: frozenset[str]) -> Iterator[str]:
+    """Notes on a properties CSV that does not fit the model: rows naming nodes the model
+    lacks (read by nothing), and model nodes without a row (their observers stay silent:
+    no verdict, not "no fault")."""
+    stray = sorted(named - nodes)
+    if stray:
+        yield (
+            f"{path}: samples of nodes the model lacks, not read: {', '.join(stray)} "
+            "(is it this robot's CSV, or are the nodes named differently?)"
+        )
+    missing = sorted(nodes - named)
+    if missing:
+        yield (
+            f"{path}: no samples of {', '.join(missing)}: their node and property observers "
+            "stay silent, so nothing is known of them (not even that they ran)"
+        )
+
+
 def _properties(
     path: str, start: float, span: float, nodes: frozenset[str]
-) -> tuple[list[Event], int]:
-    """The samples of a properties CSV within the recording, and how many lie outside it
-    (a CSV of another run: replay would otherwise step the observers to its far times)."""
+) -> tuple[list[Event], int, frozenset[str]]:
+    """The samples of a properties CSV within the recording, how many lie outside it (a
+    CSV of another run: replay would otherwise step the observers to its far times), and
+    the nodes its rows name."""
     rows = parse_samples(read_text(path), path)
     if not rows:
-        return [], 0
+        return [], 0, frozenset()
     relative = rows[0][0] < start
     shifted_rows = [(t if relative else t - start, n, c, m) for t, n, c, m in rows]
     samples = [r for r in shifted_rows if -SAMPLE_SLACK_S <= r[0] <= span + SAMPLE_SLACK_S]
@@ -260,13 +339,14 @@ def _properties(
         if mem is not None:
             events.append(PropertySample(t, node, "mem", mem))
     events.extend(liveness(samples, nodes))
-    return events, len(shifted_rows) - len(samples)
+    return events, len(shifted_rows) - len(samples), frozenset(r[1] for r in rows)
 
 
 def liveness(
     samples: Sequence[tuple[float, str, float | None, float | None]], nodes: frozenset[str]
 ) -> list[NodeSample]:
-    """One liveness sample per node and period (see the module's docstring)."""
+    """Liveness samples of each node every :data:`LIVENESS_STEP_S` from its first sample
+    on (see the module's docstring)."""
     times = sorted({s[0] for s in samples})
     if len(times) < 2 or not nodes:
         return []
@@ -277,10 +357,14 @@ def liveness(
     for t, node, _, _ in samples:
         seen.setdefault(node, []).append(t)
     arrays = {n: np.asarray(sorted(ts)) for n, ts in seen.items()}
-    ticks = np.arange(times[0], times[-1] + period / 2, period)
+    step = min(period, LIVENESS_STEP_S)
     out: list[NodeSample] = []
     for node in sorted(nodes):
         ts = arrays.get(node, np.empty(0))
+        if not ts.size:
+            continue  # never sampled: nothing says whether it ran (load_run notes it)
+        # Not before its first sample: a node that starts late is not "not running" then.
+        ticks = np.arange(ts[0], times[-1] + step / 2, step)
         # Samples in (tick − slack·P, tick]: counts from two sorted searches.
         hi = np.searchsorted(ts, ticks + 1e-9, side="right")
         lo = np.searchsorted(ts, ticks - LIVENESS_SLACK * period, side="right")

@@ -10,17 +10,23 @@ from typing import Any
 
 from rosbags.rosbag1 import Writer
 
+from rac.learn.graph import Exclusions
 from rac.ros1.common import connection_type, require_ros, resolve_pid, system_state
-from rac.runtime.record import PropertySampler, graph_yaml, robot_node
+from rac.runtime.record import DEFAULT_EXCLUSIONS, PropertySampler, graph_yaml
 
 DISCOVER_S = 0.5
 PROPERTY_HZ = 2.0
 
 
 def run_record(
-    bag: Path, csv: Path, graph: Path, duration: float, name: str = "racc_recorder"
+    bag: Path,
+    csv: Path,
+    graph: Path,
+    duration: float,
+    name: str = "racc_recorder",
+    exclusions: Exclusions = DEFAULT_EXCLUSIONS,
 ) -> tuple[int, int]:
-    """(messages, topics) recorded."""
+    """(messages, topics) recorded: the robot's, without what ``exclusions`` leaves out."""
     rospy = require_ros()
     rospy.init_node(name, anonymous=True)  # racc_recorder_*: left out of its own graph
     me = rospy.get_name()
@@ -61,16 +67,15 @@ def run_record(
         now = time.time()
         if now >= next_discover:
             pubs, subs, _ = system_state()
-            for topic, _names in pubs:
-                robot = any(robot_node(n) for n in _names)
-                if topic not in subscribed and robot and topic not in ("/rosout", "/rosout_agg"):
+            for topic, names in pubs:
+                if topic not in subscribed and exclusions.topic(topic, names):
                     subscribed[topic] = rospy.Subscriber(
                         topic, rospy.AnyMsg, on_message, callback_args=topic, queue_size=200
                     )
             next_discover = now + DISCOVER_S
         if now >= next_sample:
             names = {n for _, ns in pubs for n in ns} | {n for _, ns in subs for n in ns}
-            rows.extend(sampler.rows(now, (n for n in names if n != me and robot_node(n))))
+            rows.extend(sampler.rows(now, (n for n in names if n != me and exclusions.node(n))))
             next_sample = now + 1.0 / PROPERTY_HZ
         time.sleep(0.05)
     for sub in subscribed.values():
@@ -79,5 +84,5 @@ def run_record(
     with lock:
         writer.close()
     csv.write_text("\n".join(rows) + "\n", encoding="utf-8")
-    graph.write_text(graph_yaml(pubs, subs, ignore=[me]), encoding="utf-8")
+    graph.write_text(graph_yaml(pubs, subs, [me], exclusions), encoding="utf-8")
     return count[0], len(conns)

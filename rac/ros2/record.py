@@ -14,9 +14,9 @@ from typing import Any
 from rosbags.rosbag2 import Writer
 from rosbags.typesys import Stores, get_typestore
 
-from rac.learn.graph import INFRASTRUCTURE_TOPICS
+from rac.learn.graph import INFRASTRUCTURE_TOPICS, Exclusions
 from rac.ros2.common import PidResolver, Session, graph_nodes, message_class, sensor_qos
-from rac.runtime.record import PropertySampler, graph_yaml, robot_node
+from rac.runtime.record import DEFAULT_EXCLUSIONS, PropertySampler, graph_yaml
 
 DISCOVER_S = 0.5
 PROPERTY_HZ = 2.0
@@ -28,9 +28,14 @@ def _full(name: str, ns: str) -> str:
 
 
 def run_record(
-    bag: Path, csv: Path, graph: Path, duration: float, name: str = "racc_recorder"
+    bag: Path,
+    csv: Path,
+    graph: Path,
+    duration: float,
+    name: str = "racc_recorder",
+    exclusions: Exclusions = DEFAULT_EXCLUSIONS,
 ) -> tuple[int, int]:
-    """(messages, topics) recorded."""
+    """(messages, topics) recorded: the robot's, without what ``exclusions`` leaves out."""
     session = Session(f"{name}_{os.getpid()}")  # racc_recorder_*: left out of its graph
     node = session.node
     me = "/" + session.name
@@ -67,7 +72,8 @@ def run_record(
 
     def robot_publishers(topic: str) -> bool:
         infos = node.get_publishers_info_by_topic(topic)
-        return any(robot_node(_full(i.node_name, i.node_namespace)) for i in infos)
+        names = [_full(i.node_name, i.node_namespace) for i in infos]
+        return bool(names) and exclusions.topic(topic, names)
 
     sampler = PropertySampler(PidResolver(lambda: graph_nodes(session)))
     rows = ["time,node,cpu,mem"]
@@ -83,12 +89,12 @@ def run_record(
                         subscribe(topic, types[0])
                 next_discover = now + DISCOVER_S
             if now >= next_sample:
-                names = [n for n in graph_nodes(session) if robot_node("/" + n)]
+                names = [n for n in graph_nodes(session) if exclusions.node("/" + n)]
                 rows.extend(sampler.rows(now, names))
                 next_sample = now + 1.0 / PROPERTY_HZ
             drain()
             time.sleep(0.05)
-        publishers, subscribers = _graph(node)
+        publishers, subscribers = _graph(node, exclusions)
     finally:
         for sub in subs.values():
             node.destroy_subscription(sub)
@@ -97,17 +103,19 @@ def run_record(
         writer.close()
         session.close()
     csv.write_text("\n".join(rows) + "\n", encoding="utf-8")
-    graph.write_text(graph_yaml(publishers, subscribers, ignore=[me]), encoding="utf-8")
+    graph.write_text(graph_yaml(publishers, subscribers, [me], exclusions), encoding="utf-8")
     return count[0], len(conns)
 
 
-def _graph(node: Any) -> tuple[list[tuple[str, list[str]]], list[tuple[str, list[str]]]]:
+def _graph(
+    node: Any, exclusions: Exclusions
+) -> tuple[list[tuple[str, list[str]]], list[tuple[str, list[str]]]]:
     """(topic, [node]) pairs of publishers and subscribers, as the master's getSystemState."""
     pubs: dict[str, list[str]] = {}
     subs: dict[str, list[str]] = {}
     for name, ns in node.get_node_names_and_namespaces():
         full = _full(name, ns)
-        if not robot_node(full):
+        if not exclusions.node(full):
             continue
         for topic, _ in node.get_publisher_names_and_types_by_node(name, ns):
             pubs.setdefault(topic, []).append(full)

@@ -46,7 +46,7 @@ from rac.synth.timing import DEFAULT_EVENT_RATE_HZ, EVENT_RATE_HZ
 from rac.synth.types import MessageFactory, leaf_types, new_typestore, resolve_type
 from rac.synth.world import simulate
 
-DEMO_KINDS = (*FAULT_KINDS, "trip")
+DEMO_KINDS = tuple(FAULT_KINDS)  # synth's kinds, trip included
 SOFTWARE = frozenset({"crash", "freq", "cpu", "mem"})
 DEFAULT_PERIOD_S = 300.0
 STATUS_HZ = 1.0  # /diagnostics of a node that reports a device

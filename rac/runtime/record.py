@@ -8,29 +8,34 @@ from collections.abc import Callable, Iterable, Sequence
 import psutil
 import yaml
 
-from rac.learn.graph import INFRASTRUCTURE_TOPICS
+from rac.learn.graph import Exclusions
 
-RACC_PREFIX = "/racc_"  # racc's own nodes (runtime, recorder, tools) are not the robot's
+DEFAULT_EXCLUSIONS = Exclusions()
 
 
 def robot_node(name: str) -> bool:
-    return not name.startswith(RACC_PREFIX) and not name.startswith("/rosout")
+    """Whether a node is the robot's under the default exclusions (racc's own nodes and
+    ROS's tool nodes are not)."""
+    return DEFAULT_EXCLUSIONS.node(name)
 
 
 def graph_yaml(
     publishers: Sequence[tuple[str, Sequence[str]]],
     subscribers: Sequence[tuple[str, Sequence[str]]],
     ignore: Iterable[str] = (),
+    exclusions: Exclusions = DEFAULT_EXCLUSIONS,
 ) -> str:
-    """The master's getSystemState as the ``--graph`` YAML (nodes with their topics)."""
+    """The master's getSystemState as the ``--graph`` YAML (nodes with their topics),
+    without what ``exclusions`` leaves out."""
     skip = {n.rstrip("/") for n in ignore}
+    owners = {topic: names for topic, names in publishers}
     nodes: dict[str, dict[str, set[str]]] = {}
     for key, pairs in (("publications", publishers), ("subscriptions", subscribers)):
         for topic, names in pairs:
-            if topic in INFRASTRUCTURE_TOPICS:
+            if not exclusions.topic(topic, owners.get(topic, ())):
                 continue
             for name in names:
-                if name in skip or not robot_node(name):
+                if name in skip or not exclusions.node(name):
                     continue
                 entry = nodes.setdefault(name, {"publications": set(), "subscriptions": set()})
                 entry[key].add(topic)

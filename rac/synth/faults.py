@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from collections.abc import Collection
 from dataclasses import dataclass
 
 from rac.errors import Diagnostic, RacError, did_you_mean
@@ -14,6 +15,7 @@ FAULT_KINDS = {
     "freq": "topic",  # the topic published five times as often
     "cpu": "node",  # the node whose CPU use rises (properties CSV)
     "mem": "node",  # the node whose memory use doubles, past its limit (properties CSV)
+    "trip": "device",  # the switchable device whose supply the board trips (racc demo's)
 }
 FREQ_FACTOR = 5.0
 ODOMETRY = "nav_msgs/Odometry"
@@ -51,10 +53,15 @@ def parse_fault(spec: str, model: Model, duration: float | None = None) -> Fault
     if kind not in FAULT_KINDS:
         why = f"unknown kind '{kind}' (one of {', '.join(FAULT_KINDS)})"
         raise _bad(spec, why, did_you_mean(kind, FAULT_KINDS))
-    names = model.topic_by_name() if FAULT_KINDS[kind] == "topic" else model.node_by_name()
+    names: Collection[str] = (
+        model.topic_by_name() if FAULT_KINDS[kind] == "topic" else model.node_by_name()
+    )
+    if kind == "trip":
+        # A trip needs a device on a board channel: the board measures and switches it.
+        names = sorted(h.name.value for h in model.hardware if h.switchable and h.channel)
     if target not in names:
-        what = FAULT_KINDS[kind]
-        why = f"the model has no {what} '{target}' (one of {', '.join(sorted(names))})"
+        what = "switchable device on a board channel" if kind == "trip" else FAULT_KINDS[kind]
+        why = f"the model has no {what} '{target}' (one of {', '.join(sorted(names)) or 'none'})"
         raise _bad(spec, why, did_you_mean(target, names))
     topic = model.topic_by_name().get(target)
     odometry = topic is not None and (topic.msg_type or "").replace("/msg/", "/") == ODOMETRY

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import heapq
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +25,12 @@ from rac.synth.types import DTYPES, MessageFactory, leaf_types, new_typestore, r
 from rac.synth.world import simulate
 
 EPOCH_S = 1_600_000_000  # recordings start here (plus one hour per seed) in ROS time
+# The board client's measurements: one diagnostic_msgs/DiagnosticArray with a "channel N"
+# status per switchable device on a channel, as racc's board client publishes them.
+BOARD_TOPIC = "/board_measurements"
+BOARD_TYPE = "diagnostic_msgs/msg/DiagnosticArray"
+BOARD_PUBLISHER = "racc_board_client"
+BOARD_HZ = 2.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -59,6 +65,8 @@ class Plan:
     topics: tuple[PlannedTopic, ...]
     properties: str  # the CSV text
     factory: MessageFactory
+    board: tuple[tuple[int, str], ...] = ()  # (channel, device) on the board
+    board_times: FloatArray = field(default_factory=lambda: np.empty(0))
 
     @property
     def messages(self) -> int:
@@ -90,7 +98,52 @@ def plan_recording(model: Model, options: SynthOptions) -> Plan:
         )
     start = float(EPOCH_S + 3600 * options.seed)
     csv = properties_csv(model, options.duration, options.faults, rng)
-    return Plan(options, start, store, tuple(planned), csv, MessageFactory(store))
+    board = tuple(
+        sorted((h.channel, h.name.value) for h in model.hardware if h.switchable and h.channel)
+    )
+    times = np.arange(0.0, options.duration, 1.0 / BOARD_HZ) if board else np.empty(0)
+    return Plan(options, start, store, tuple(planned), csv, MessageFactory(store), board, times)
+
+
+def board_message(plan: Plan, t: float) -> Any:
+    """The board's measurement at ``t``: every channel on, unless a trip holds it off."""
+    types = plan.store.types
+    stamp = plan.start_s + t
+    header = (
+        types["std_msgs/msg/Header"](
+            seq=0,
+            stamp=types["builtin_interfaces/msg/Time"](
+                sec=int(stamp), nanosec=int(stamp % 1 * 1e9)
+            ),
+            frame_id="",
+        )
+        if plan.options.ros_version == 1
+        else types["std_msgs/msg/Header"](
+            stamp=types["builtin_interfaces/msg/Time"](
+                sec=int(stamp), nanosec=int(stamp % 1 * 1e9)
+            ),
+            frame_id="",
+        )
+    )
+    status, value = (
+        types["diagnostic_msgs/msg/DiagnosticStatus"],
+        types["diagnostic_msgs/msg/KeyValue"],
+    )
+    tripped = {f.target for f in plan.options.faults if f.kind == "trip" and f.active(t)}
+    rows = []
+    for channel, device in plan.board:
+        on = device not in tripped
+        values = [value(key="on", value="1" if on else "0")]
+        rows.append(
+            status(
+                level=0,
+                name=f"channel {channel}",
+                message="on" if on else "off",
+                hardware_id=device,
+                values=values,
+            )
+        )
+    return types[BOARD_TYPE](header=header, status=rows)
 
 
 def _assign(path: str, values: list[Any]) -> Assignment:
@@ -157,13 +210,15 @@ def build_message(plan: Plan, topic: PlannedTopic, i: int) -> Any:
 
 
 def _in_time_order(plan: Plan) -> Iterator[tuple[int, int]]:
-    """(topic index, message index) of every message, by publication time."""
+    """(topic index, message index) of every message, by publication time; the board's
+    measurements come as the topic index after the last topic."""
 
     def stream(k: int, times: FloatArray) -> Iterator[tuple[float, int, int]]:
         for i, t in enumerate(times.tolist()):
             yield t, k, i
 
     streams = [stream(k, topic.times) for k, topic in enumerate(plan.topics)]
+    streams.append(stream(len(plan.topics), plan.board_times))
     for _, k, i in heapq.merge(*streams):
         yield k, i
 
@@ -179,10 +234,18 @@ def write_recording(plan: Plan, path: Path) -> int:
                 )
                 for t in plan.topics
             ]
+            if plan.board:
+                conns.append(
+                    writer1.add_connection(
+                        BOARD_TOPIC, BOARD_TYPE, typestore=store, callerid=f"/{BOARD_PUBLISHER}"
+                    )
+                )
             return _write_messages(plan, conns, writer1.write, store.serialize_ros1)
     plugin = StoragePlugin.MCAP if plan.options.storage == "mcap" else StoragePlugin.SQLITE3
     with Writer2(path, version=9, storage_plugin=plugin) as writer2:
         conns = [writer2.add_connection(t.name, t.typename, typestore=store) for t in plan.topics]
+        if plan.board:
+            conns.append(writer2.add_connection(BOARD_TOPIC, BOARD_TYPE, typestore=store))
         return _write_messages(plan, conns, writer2.write, store.serialize_cdr)
 
 
@@ -195,6 +258,12 @@ def _write_messages(
     """Every planned message, in time order, through one bag writer; how many."""
     count = 0
     for k, i in _in_time_order(plan):
+        if k == len(plan.topics):
+            t = float(plan.board_times[i])
+            message = serialize(board_message(plan, t), BOARD_TYPE)
+            write(conns[k], round((plan.start_s + t) * 1e9), message)
+            count += 1
+            continue
         topic = plan.topics[k]
         stamp = round((plan.start_s + float(topic.times[i])) * 1e9)
         write(conns[k], stamp, serialize(build_message(plan, topic, i), topic.typename))

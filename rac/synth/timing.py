@@ -74,7 +74,10 @@ def publication_times(
                 rate = EVENT_RATE_HZ.get(topic.msg_type or "", DEFAULT_EVENT_RATE_HZ)
                 times = _poisson(rate, duration, rng)
         for f in faults:
-            if f.kind == "crash" and publishers[name][0] == f.target:
+            # A crash stops the node's topics; a trip the topics of its device's driver.
+            stops = f.kind == "crash" and node.name.value == f.target
+            stops |= f.kind == "trip" and f.target in {d.value for d in node.drives}
+            if stops:
                 times = times[(times < f.start) | (times >= f.end)]
         out[name] = np.sort(times)
         return out[name]
