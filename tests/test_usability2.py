@@ -1,0 +1,38 @@
+"""Issue 26: what a new user tripped over, second pass (messages, output, real inputs).
+The live points (racc run, racc watch, the demo) are in tests/ros1 and tests/ros2."""
+
+from __future__ import annotations
+
+import shlex
+from pathlib import Path
+
+import pytest
+
+from rac.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+TEDUSAR = str(ROOT / "models" / "tedusar.ram")
+
+
+def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
+    code = main(argv)
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_fmt_hints_a_command_that_works_and_none_for_model_yaml(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    model = tmp_path / "tedusar.json"
+    assert _run(["export", "--json", TEDUSAR, "-o", str(model)], capsys)[0] == 0
+    code, _, err = _run(["fmt", str(model)], capsys)
+    assert code == 1 and "RAC060" in err
+    hint = err.split("help: ")[1].split("'")[1]
+    argv = shlex.split(hint)
+    assert argv[0] == "racc"
+    assert _run(argv[1:], capsys)[0] == 0  # the hint's own command works
+    assert (tmp_path / "tedusar.ram").read_text().startswith("robot tedusar")
+    yaml = tmp_path / "model.yaml"
+    yaml.write_text("robot: x\n")
+    code, _, err = _run(["fmt", str(yaml)], capsys)
+    assert code == 1 and "racc export" not in err and "compiled from" in err
