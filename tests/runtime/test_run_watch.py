@@ -91,3 +91,17 @@ def test_watch_prints_a_diagnosis_change_once() -> None:
     assert watch.diagnosis(fault, 2.0) == []
     line = watch.repair([Row("start_node", 0, "done: running(x) observed", "x")], 3.0)[0]
     assert "ok    start_node x: done: running(x) observed" in line
+
+
+def test_the_fast_dds_profile_reaches_fast_dds_under_the_name_it_reads() -> None:
+    from rac.ros2.common import PROFILES_V2, PROFILES_V3, align_fastdds_profiles
+
+    env = {PROFILES_V3: "/p.xml"}
+    align_fastdds_profiles(env, 2)  # Humble, Jazzy, the 2.14 wheels: only the old name
+    assert env == {PROFILES_V3: "/p.xml", PROFILES_V2: "/p.xml"}
+    env = {PROFILES_V2: "/p.xml"}
+    align_fastdds_profiles(env, 3)  # Fast DDS 3 warns about the old name
+    assert env == {PROFILES_V3: "/p.xml"}
+    env = {PROFILES_V2: "/p.xml"}
+    align_fastdds_profiles(env, None)  # unknown: left as the user set it
+    assert env == {PROFILES_V2: "/p.xml"}
