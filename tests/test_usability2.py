@@ -36,3 +36,28 @@ def test_fmt_hints_a_command_that_works_and_none_for_model_yaml(
     yaml.write_text("robot: x\n")
     code, _, err = _run(["fmt", str(yaml)], capsys)
     assert code == 1 and "racc export" not in err and "compiled from" in err
+
+
+def test_diagnose_reads_the_model_yaml_compile_writes_for_50000_nodes(tmp_path: Path) -> None:
+    """model.yaml of a 50,000-node robot is 19.6 MB, beyond the YAML composer's 16 MiB
+    limit: it is read line by line, as racc writes it (RAC009 before)."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "bench"))
+    try:
+        from compile import synthetic_model
+    finally:
+        sys.path.remove(str(ROOT / "bench"))
+    from rac.diagnosis import load_theory
+    from rac.limits import MAX_YAML_BYTES
+    from rac.pipeline import compile_model
+    from rac.targets import EmitOptions
+    from rac.targets.model_yaml import emit_model_yaml
+
+    model = synthetic_model(50_000)
+    text = emit_model_yaml(compile_model(model), EmitOptions())
+    assert len(text) > MAX_YAML_BYTES
+    path = tmp_path / "model.yaml"
+    path.write_text(text, encoding="utf-8")
+    theory = load_theory(str(path))
+    assert len(theory.components) >= 50_000
