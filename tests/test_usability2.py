@@ -61,3 +61,45 @@ def test_diagnose_reads_the_model_yaml_compile_writes_for_50000_nodes(tmp_path: 
     path.write_text(text, encoding="utf-8")
     theory = load_theory(str(path))
     assert len(theory.components) >= 50_000
+
+
+def _codes_and_hints(text: str) -> list[tuple[str, str | None]]:
+    from rac.errors import RacError
+    from rac.parse import parse_ram
+    from rac.pipeline import check_model
+
+    try:
+        found = check_model(parse_ram(text, "robot.ram"))
+    except RacError as err:
+        found = err.diagnostics
+    return [(d.code, d.hint) for d in found if d.severity == "error"]
+
+
+def test_a_misspelt_input_is_one_error_not_three() -> None:
+    text = """robot r
+topic /scan : sensor_msgs/LaserScan @ 10 Hz
+topic /odom : nav_msgs/Odometry @ 10 Hz
+topic /cmd_vel : geometry_msgs/Twist
+node laser { publishes /scan }
+node odo { publishes /odom }
+node nav {
+  subscribes /scan, /odm
+  publishes /cmd_vel from /scan, /odom
+}
+node base { subscribes /cmd_vel }
+"""
+    assert _codes_and_hints(text) == [("RAC012", "did you mean '/odom'?")]
+
+
+def test_an_undeclared_topic_is_one_error_that_says_to_declare_it() -> None:
+    text = """robot r
+topic /scan : sensor_msgs/LaserScan @ 10 Hz
+node laser { publishes /scan }
+node planner { publishes /goal }
+node nav { subscribes /scan, /goal }
+node arm { subscribes /goal }
+"""
+    found = _codes_and_hints(text)
+    assert len(found) == 1 and found[0][0] == "RAC012"
+    assert "declare it: 'topic /goal" in (found[0][1] or "")
+    assert "'arm', 'nav'" in (found[0][1] or "")
