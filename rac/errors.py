@@ -205,6 +205,7 @@ CODES: dict[str, str] = {
     "RAC130": "racc run: no launch file, or a wrong argument for it",
     "RAC131": "racc run: a node's executable cannot be found",
     "RAC132": "racc demo: the board simulator cannot listen on its ports",
+    "RAC133": "a frequency window far outside the range its rate makes sensible (warning)",
     "RAC100": "subscribed topic has no publisher",
     "RAC101": "hardware driven by no node",
     "RAC102": "node with no topics",

@@ -103,3 +103,44 @@ node arm { subscribes /goal }
     assert len(found) == 1 and found[0][0] == "RAC012"
     assert "declare it: 'topic /goal" in (found[0][1] or "")
     assert "'arm', 'nav'" in (found[0][1] or "")
+
+
+def _diagnostics(text: str) -> list[object]:
+    from rac.errors import RacError
+    from rac.parse import parse_ram
+    from rac.pipeline import check_model
+
+    try:
+        return list(check_model(parse_ram(text, "robot.ram")))
+    except RacError as err:
+        return list(err.diagnostics)
+
+
+@pytest.mark.parametrize(
+    ("written", "unit", "column"),
+    [("mem 1 Gb", "GB", 16), ("mem 1 mb", "MB", 16), ("cpu 5 %, mem 2 kb", "kB", 25)],
+)
+def test_a_unit_in_the_wrong_case_gets_its_caret_and_a_did_you_mean(
+    written: str, unit: str, column: int
+) -> None:
+    text = f"robot r\ntopic /a @ 10 Hz\nnode n {{\n  publishes /a\n  limits {written}\n}}\n"
+    (d,) = _diagnostics(text)
+    assert d.code == "RAC001" and d.hint == f"did you mean '{unit}'?"  # type: ignore[attr-defined]
+    assert d.span.column == column  # type: ignore[attr-defined]
+
+
+def test_a_rate_unit_in_the_wrong_case() -> None:
+    (d,) = _diagnostics("robot r\ntopic /a @ 10 hz\nnode n { publishes /a }\n")
+    assert d.hint == "did you mean 'Hz'?" and d.span.column == 15  # type: ignore[attr-defined]
+
+
+def test_a_tolerance_error_gives_the_values() -> None:
+    (d,) = _diagnostics("robot r\ntopic /a @ 10 Hz +- 20 Hz\nnode n { publishes /a }\n")
+    assert d.code == "RAC029" and "20 Hz" in d.message and "10 Hz" in d.message  # type: ignore[attr-defined]
+
+
+@pytest.mark.parametrize(("window", "warned"), [("500 s", True), ("50 ms", True), ("2 s", False)])
+def test_a_window_far_outside_its_rate_is_warned(window: str, warned: bool) -> None:
+    text = f"robot r\ntopic /a @ 10 Hz window {window}\nnode n {{ publishes /a }}\n"
+    codes = [d.code for d in _diagnostics(text)]  # type: ignore[attr-defined]
+    assert ("RAC133" in codes) == warned

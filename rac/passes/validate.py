@@ -374,6 +374,32 @@ def _number_problems(model: Model) -> Iterator[Diagnostic]:
             yield _error("RAC007", f"{what.format(name)} {shown} is {problem}", span)
 
 
+# A GObs window holds 10 messages by default (docs/language.md); one that holds fewer than
+# WINDOW_MIN_MESSAGES, or more than WINDOW_MAX_MESSAGES, is almost surely a slip of unit.
+WINDOW_MIN_MESSAGES = 2
+WINDOW_MAX_MESSAGES = 1000
+
+
+def _window_range(
+    name: str, window_s: float, rate_hz: float, span: Span | None
+) -> Iterator[Diagnostic]:
+    """RAC133 (warning) for a window far outside the sensible range of its rate."""
+    messages = window_s * rate_hz
+    default = f"the default is 10 messages, {10 / rate_hz:g} s"
+    if messages < WINDOW_MIN_MESSAGES:
+        msg = (
+            f"topic '{name}': window {window_s:g} s holds {messages:.3g} messages at "
+            f"{rate_hz:g} Hz; the observer cannot measure a rate from so few"
+        )
+        yield _warning("RAC133", msg, span, f"{default}; ms or s?")
+    elif messages > WINDOW_MAX_MESSAGES:
+        msg = (
+            f"topic '{name}': window {window_s:g} s holds {messages:,.0f} messages at "
+            f"{rate_hz:g} Hz; a fault on it shows up to {window_s:g} s late"
+        )
+        yield _warning("RAC133", msg, span, f"{default}; ms or s?")
+
+
 def check_values(model: Model) -> Iterator[Diagnostic]:
     """Rates, limits and thresholds are positive and consistent."""
     for t in model.topics:
@@ -390,9 +416,16 @@ def check_values(model: Model) -> Iterator[Diagnostic]:
             )
         tol = t.rate_tolerance_hz
         if tol is not None and t.rate_hz is not None and not 0 <= tol < t.rate_hz:
-            yield _error("RAC029", f"topic '{name}': tolerance must be in [0, rate)", t.span)
+            msg = (
+                f"topic '{name}': tolerance {tol:g} Hz must be in [0, rate), "
+                f"below the rate {t.rate_hz:g} Hz"
+            )
+            hint = f"a tolerance is what the rate may deviate by: e.g. '+- {t.rate_hz / 10:g} Hz'"
+            yield _error("RAC029", msg, t.span, hint)
         if t.window_s is not None and t.window_s <= 0:
             yield _error("RAC029", f"topic '{name}': window must be above 0 s", t.span)
+        elif t.window_s is not None and t.rate_hz is not None and t.rate_hz > 0:
+            yield from _window_range(name, t.window_s, t.rate_hz, t.span)
     for n in model.nodes:
         lim = n.limits
         if (lim.cpu is not None and lim.cpu <= 0) or (lim.mem is not None and lim.mem <= 0):
