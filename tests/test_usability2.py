@@ -144,3 +144,22 @@ def test_a_window_far_outside_its_rate_is_warned(window: str, warned: bool) -> N
     text = f"robot r\ntopic /a @ 10 Hz window {window}\nnode n {{ publishes /a }}\n"
     codes = [d.code for d in _diagnostics(text)]  # type: ignore[attr-defined]
     assert ("RAC133" in codes) == warned
+
+
+def test_tug_import_reads_an_empty_topic_name_as_none(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    config = tmp_path / "tug.yaml"
+    config.write_text(
+        "nodes:\n"
+        "  - name: driver\n    pub_topic: [/scan]\n    sub_topic: ['']\n"
+        "  - name: mapper\n    pub_topic: ['/map']\n    sub_topic: [/scan]\n"
+    )
+    out = tmp_path / "robot.ram"
+    code, _, err = _run(["import", "tug", str(config), "-o", str(out)], capsys)
+    assert code == 0, err
+    assert "node driver: sub_topic holds an empty name, read as none" in out.read_text()
+    from rac.tug import import_tug
+
+    nodes = import_tug(config.read_text(), str(config), "r").model.node_by_name()
+    assert nodes["driver"].subscribes == ()
