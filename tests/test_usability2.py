@@ -163,3 +163,36 @@ def test_tug_import_reads_an_empty_topic_name_as_none(
 
     nodes = import_tug(config.read_text(), str(config), "r").model.node_by_name()
     assert nodes["driver"].subscribes == ()
+
+
+@pytest.fixture(scope="module")
+def crash_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    run = tmp_path_factory.mktemp("replay") / "run.bag"
+    argv = ["synth", TEDUSAR, "-o", str(run), "--duration", "30", "--fault", "crash@10:joy_node"]
+    assert main([*argv, "-q"]) == 0
+    return run
+
+
+def test_a_faults_file_without_robot_and_duration_is_used(
+    crash_run: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    faults = crash_run.with_name("run.faults.yaml")
+    faults.write_text(
+        "faults:\n- kind: crash\n  target: joy_node\n  start: 10.0\n  culprits: [joy_node]\n"
+    )
+    code, out, err = _run(["replay", TEDUSAR, str(crash_run)], capsys)
+    assert code == 0, err
+    assert "RAC085" not in err and "without ground truth" not in err
+    # scored against the truth, the fault lasting to the end of the 30 s recording
+    assert "fault crash joy_node 10-29.9" in out and "reported at" in out
+
+
+def test_replay_goes_on_without_an_unusable_faults_file(
+    crash_run: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    faults = crash_run.with_name("run.faults.yaml")
+    faults.write_text("faults: 3\n")
+    code, out, err = _run(["replay", TEDUSAR, str(crash_run)], capsys)
+    assert code == 0, err
+    assert "episode 1" in out  # replayed, unscored
+    assert "not a usable faults file (RAC085" in err and "replaying without ground truth" in err
