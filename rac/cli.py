@@ -50,6 +50,8 @@ COMMANDS = (
     "board-client",
     "record",
     "demo",
+    "run",
+    "watch",
     "ros-package",
 )
 

@@ -142,6 +142,23 @@ _NUMBER_BEFORE = re.compile(r"[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?\s*$")
 _BLOCK_HEAD = re.compile(r"(?:^|(?<=[\s;}]))(node|topic)\s+([A-Za-z_~/][A-Za-z0-9_~/\-]*)")
 
 
+# The units each unit terminal of the grammar accepts (rac/grammar/ram.lark).
+_UNITS = {
+    "MEM_UNIT": ("GiB", "MiB", "KiB", "GB", "MB", "kB", "KB", "B"),
+    "HZ": ("Hz",),
+    "TIME_UNIT": ("ms", "s"),
+}
+
+
+def _misspelt_unit(word: str, terminals: list[str]) -> str | None:
+    """'did you mean ...?' when ``word`` is an expected unit in another case (`Gb`, `hz`)."""
+    for terminal in terminals:
+        for unit in _UNITS.get(terminal, ()):
+            if word.lower() == unit.lower() and word != unit:
+                return f"did you mean '{unit}'?"
+    return None
+
+
 def _special_token_error(err: UnexpectedToken, path: str, text: str) -> Diagnostic | None:
     """The syntax errors that read better in words than as 'unexpected X; expected Y'."""
     token = err.token
@@ -152,6 +169,10 @@ def _special_token_error(err: UnexpectedToken, path: str, text: str) -> Diagnost
     number = _NUMBER_BEFORE.search(before) if units else None
     if number is not None:
         value = number.group().strip()
+        misspelt = _misspelt_unit(str(token), units)
+        if misspelt is not None:  # `1 Gb`, `10 hz`: the unit is there, in the wrong case
+            message = f"unknown unit '{token}': expected {_words(set(err.expected))}"
+            return Diagnostic("RAC001", message, _span(path, token), hint=misspelt)
         at = _span_of(path, text, number.start(), number.start() + len(value))
         message = f"the number {value} needs its unit: expected {_words(set(err.expected))}"
         return Diagnostic(

@@ -67,7 +67,10 @@ def _bad(path: str, message: str) -> RacError:
     )
 
 
-def _names(value: Any, path: str, where: str) -> list[str]:
+def _names(value: Any, path: str, where: str, notes: list[str] | None = None) -> list[str]:
+    """The names of a list.  Where ``notes`` is given (a node's topics), an empty name is
+    none, with a note: real configurations write ``sub_topic: ['']`` for a node that
+    subscribes nothing."""
     if value is None:
         return []
     if not isinstance(value, list):
@@ -75,9 +78,11 @@ def _names(value: Any, path: str, where: str) -> list[str]:
     out: list[str] = []
     for item in value:
         if isinstance(item, list):  # timing/velocity entries name topic pairs
-            out.extend(_names(item, path, where))
+            out.extend(_names(item, path, where, notes))
         elif isinstance(item, str) and item:
             out.append(item)
+        elif item == "" and notes is not None:
+            notes.append(f"{where} holds an empty name, read as none")
         else:
             raise _bad(path, f"{where} holds {item!r}, not a name")
     return out
@@ -105,8 +110,9 @@ def import_tug(text: str, path: str, robot: str, default_rate: float = DEFAULT_R
         if not isinstance(entry, dict) or not isinstance(entry.get("name"), str):
             raise _bad(path, f"nodes[{k}] has no name")
         name = entry["name"]
-        pubs = list(dict.fromkeys(_names(entry.get("pub_topic"), path, f"{name}: pub_topic")))
-        subs = list(dict.fromkeys(_names(entry.get("sub_topic"), path, f"{name}: sub_topic")))
+        pubs = _names(entry.get("pub_topic"), path, f"node {name}: pub_topic", notes)
+        subs = _names(entry.get("sub_topic"), path, f"node {name}: sub_topic", notes)
+        pubs, subs = list(dict.fromkeys(pubs)), list(dict.fromkeys(subs))
         extra = sorted(set(entry) - {"name", "pub_topic", "sub_topic"})
         if extra:
             notes.append(f"node {name}: keys without a counterpart, ignored: {', '.join(extra)}")

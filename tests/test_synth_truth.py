@@ -343,7 +343,7 @@ GOOD_FAULT = "- kind: crash\n  target: n\n  start: 1.0\n  end: 2.0\n  culprits: 
         ("robot: [r\n", "RAC085", 2, 1, "not valid YAML"),
         ("", "RAC085", 1, 1, "empty faults file"),
         ("- 1\n", "RAC085", 1, 1, "must be a mapping"),
-        ("robot: r\nfaults: []\n", "RAC085", 1, 1, "lacks 'duration'"),
+        ("robot: r\nduration: 60\n", "RAC085", 1, 1, "lacks 'faults'"),
         (GOOD_HEAD + GOOD_FAULT + "extra: 1\n", "RAC085", 9, 1, "unknown key 'extra'"),
         ("robot: r\nrobot: s\nduration: 1\nfaults: []\n", "RAC085", 2, 1, "twice"),
         ("robot: r\nduration: soon\nfaults: []\n", "RAC085", 2, 11, "number of seconds"),

@@ -36,6 +36,9 @@ class CommandParser(argparse.ArgumentParser):
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self.batched: dict[str, str] = {}  # option -> the hidden option taking a run of it
+        # ``NAME:=VALUE`` words after an option (``racc run DIR --ros 2 board:=H:P``) go to
+        # this list attribute, which argparse's positional would not take a second time.
+        self.assignments: str | None = None
 
     def batch(self, option: str, hidden: str) -> None:
         self.batched[option] = hidden
@@ -46,6 +49,10 @@ class CommandParser(argparse.ArgumentParser):
         if args is not None and self.batched:
             args = batched_runs(list(args), self.batched)
         parsed, extra = super().parse_known_args(args, namespace)
+        if extra and self.assignments is not None:
+            words = [w for w in extra if ":=" in w and not w.startswith("-")]
+            setattr(parsed, self.assignments, [*getattr(parsed, self.assignments), *words])
+            extra = [w for w in extra if w not in words]
         if extra:
             # Left to the top-level parser, the error would show `racc`'s usage, not the
             # command's: the user needs to see the options of the command they typed.

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import itertools
 import os
+import select
 import shlex
 import signal
 import subprocess
@@ -15,7 +17,7 @@ from typing import Any
 from xml.sax.saxutils import quoteattr
 
 from rac.board.control import send_control
-from rac.commands.common import add_command, add_ros_option, load_checked, ros_version
+from rac.commands.common import add_command, add_ros_option, count, load_checked, ros_version
 from rac.commands.ros_package import write_package
 from rac.errors import Diagnostic, RacError
 from rac.loader import load_model
@@ -23,6 +25,7 @@ from rac.runtime.demo import DEFAULT_PERIOD_S, DemoNode, fault_text, parse_demo_
 from rac.synth.faults import Fault
 
 STOP_S = 10.0
+BOARD_START_S = 20.0  # racc board-sim's start on a loaded machine
 
 
 def register(sub: Any) -> None:
@@ -41,8 +44,7 @@ def register(sub: Any) -> None:
         "trip@T:device. Needs ROS 1 and a running master (roscore), or ROS 2 (rclpy).",
         "  racc demo models/tedusar.ram -o /tmp/demo\n"
         "  racc demo models/tedusar.ram -o /tmp/demo --fault crash@30:jaguar_node\n"
-        "  roslaunch build/tedusar/observers.launch robot_launch:=/tmp/demo/robot.launch "
-        "board:=127.0.0.1:7000\n"
+        "  racc run build/tedusar --robot-launch /tmp/demo/robot.launch board:=127.0.0.1:7000\n"
         "  racc demo models/tedusar.ram --ros 2 -o /tmp/demo2 --fault crash@30:jaguar_node",
     )
     parser.add_argument("model", metavar="MODEL", help="the robot (.ram or ram/1 .json)")
@@ -122,7 +124,15 @@ def _prepend(env: dict[str, str], variable: str, path: Path) -> None:
     env[variable] = os.pathsep.join(p for p in (str(path), env.get(variable, "")) if p)
 
 
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
 def run(args: argparse.Namespace) -> int:
+    # SIGTERM stops the demo as Ctrl-C does, its nodes with it; and SIGINT does even when a
+    # shell started it in the background with SIGINT ignored.
+    signal.signal(signal.SIGTERM, _interrupt)
+    signal.signal(signal.SIGINT, _interrupt)
     model = load_checked(args.model)
     faults = [parse_demo_fault(f, model) for f in args.fault]
     ros = ros_version(args)
@@ -157,7 +167,6 @@ def run(args: argparse.Namespace) -> int:
     try:
         if any(h.switchable for h in model.hardware):
             procs.append(_board_sim(args))
-            print(f"board 127.0.0.1:{args.board_port} control 127.0.0.1:{args.control_port}")
         if ros == 2:
             # The processes the launch file names, as ros2 launch starts them: a crashed
             # node stays down (its process ends) until the repair engine restarts it.
@@ -182,7 +191,40 @@ def run(args: argparse.Namespace) -> int:
                 p.wait(STOP_S)
             except subprocess.TimeoutExpired:
                 p.kill()
+        _stop_restarted_nodes(epoch)
     return 0
+
+
+def demo_processes(epoch: float) -> list[int]:
+    """Pids of this demo's nodes that someone else started (a repair engine restarting
+    them from robot.launch): their command lines carry the demo's ``--epoch``."""
+    import psutil
+
+    mark = f"{epoch:.3f}"
+    found = []
+    for proc in psutil.process_iter(["cmdline"]):
+        line = proc.info["cmdline"] or []
+        if any(a.endswith("demo_node") for a in line[:2]) and any(
+            a == "--epoch" and b == mark for a, b in itertools.pairwise(line)
+        ):
+            found.append(proc.pid)
+    return found
+
+
+def _stop_restarted_nodes(epoch: float) -> None:
+    """When the demo ends, so does its robot: the nodes a repair engine restarted too
+    (twice, 2 s apart, for a restart that was under way; docs/runtime.md, "Stopping")."""
+    from rac.runtime.procs import STOP_SIGNALS, terminate
+
+    for sweep in range(2):
+        pids = [p for p in demo_processes(epoch) if p != os.getpid()]
+        for pid in pids:
+            terminate(pid, STOP_SIGNALS)
+        if pids:
+            stopped = count(len(pids), "restarted node")
+            print(f"t={time.time():.3f} demo: stopped {stopped}", flush=True)
+        if sweep == 0:
+            time.sleep(2.0)
 
 
 def _require_client_library(ros: int) -> None:
@@ -199,9 +241,38 @@ def _require_client_library(ros: int) -> None:
 
 
 def _board_sim(args: argparse.Namespace) -> subprocess.Popen[bytes]:
+    """racc board-sim, listening: RAC132 (before any node starts) when it cannot, as when
+    a port is taken (the nodes would otherwise talk to another process's board)."""
     command = [sys.executable, "-m", "rac", "board-sim", "--model", args.model]
     command += ["--port", str(args.board_port), "--control-port", str(args.control_port), "-q"]
-    return subprocess.Popen(command)
+    proc = subprocess.Popen(command, stdout=subprocess.PIPE)
+    assert proc.stdout is not None
+    text = b""
+    deadline = time.time() + BOARD_START_S
+    while text.count(b"\n") < 2 and time.time() < deadline:
+        ready, _, _ = select.select([proc.stdout], [], [], 0.2)
+        chunk = os.read(proc.stdout.fileno(), 4096) if ready else b""
+        text += chunk
+        if (ready and not chunk) or proc.poll() is not None:
+            break  # board-sim ended: its error (RAC090) is above
+    listening = text.decode("utf-8", "replace").split()[:4]
+    if len(listening) < 4 or proc.poll() is not None:
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait()
+        raise RacError(
+            [
+                Diagnostic(
+                    "RAC132",
+                    f"the board simulator could not listen on 127.0.0.1:{args.board_port} "
+                    f"and :{args.control_port}",
+                    hint="another process may hold a port: choose free ones with "
+                    "--board-port and --control-port",
+                )
+            ]
+        )
+    print(" ".join(listening), flush=True)  # "board 127.0.0.1:7000 control 127.0.0.1:7001"
+    return proc
 
 
 def _run_faults(

@@ -148,7 +148,7 @@ def run(args: argparse.Namespace) -> int:
         if not args.quiet:
             for note in inputs.notes:
                 print(f"note: {note}", file=sys.stderr)
-        runs.append(TestRun(path, inputs, truth.faults))
+        runs.append(TestRun(path, inputs, truth.fitted(inputs.duration).faults))
     options = ReplayOptions(diagnose_every=args.diagnose_every, max_card=args.max_card)
     jobs = args.jobs or default_jobs()
     if not args.quiet and sys.stderr.isatty():

@@ -20,16 +20,21 @@ def register(sub: Any) -> None:
         sub,
         "fmt",
         "format .ram files canonically",
-        "Rewrite each FILE in canonical form. With --check, change nothing and exit 1 "
-        "when a file is not formatted (for CI).",
+        "Rewrite each FILE in canonical form. With --check or --diff, change nothing and "
+        "exit 1 when a file is not formatted (for CI, as ruff format does); --diff also "
+        "prints the change as a unified diff.",
         "  racc fmt models/tedusar.ram\n"
         "  racc fmt --check models/*.ram\n"
-        "  racc fmt --diff robot.ram",
+        "  racc fmt --diff robot.ram\n"
+        "  racc fmt --check --diff models/*.ram",
     )
     parser.add_argument("files", metavar="FILE", nargs="+", help=".ram files")
-    mode = parser.add_mutually_exclusive_group()
-    mode.add_argument("--check", action="store_true", help="only report files that would change")
-    mode.add_argument("--diff", action="store_true", help="print a unified diff, change nothing")
+    parser.add_argument(
+        "--check", action="store_true", help="only report files that would change (exit 1)"
+    )
+    parser.add_argument(
+        "--diff", action="store_true", help="print a unified diff, change nothing (exit 1)"
+    )
     parser.set_defaults(run=run)
 
 
@@ -39,13 +44,23 @@ def _require_ram(names: list[str]) -> None:
     character (or, formatted, lose its own format)."""
     wrong = [n for n in names if n.endswith((".json", ".yaml", ".yml"))]
     if wrong:
-        hint = "racc export MODEL.json -o MODEL.ram writes a ram/1 model as .ram text"
         raise RacError(
             [
-                Diagnostic("RAC060", f"{n}: racc fmt formats .ram files only", hint=hint)
+                Diagnostic("RAC060", f"{n}: racc fmt formats .ram files only", hint=_hint(n))
                 for n in wrong
             ]
         )
+
+
+def _hint(name: str) -> str:
+    """What to do instead, for the kind of file given: only a ram/1 .json becomes .ram."""
+    if name.endswith(".json"):
+        ram = name[: -len(".json")] + ".ram"
+        return f"'racc export --ram {name} -o {ram}' writes a ram/1 model as .ram text"
+    return (
+        "a model.yaml (or other YAML) is written by racc compile and has no .ram form: "
+        "format the .ram model it was compiled from"
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -59,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
         unformatted += 1
         if args.check:
             print(f"would reformat {name}", file=sys.stderr)
-        elif args.diff:
+        if args.diff:
             sys.stdout.writelines(
                 difflib.unified_diff(
                     text.splitlines(keepends=True),
@@ -68,9 +83,9 @@ def run(args: argparse.Namespace) -> int:
                     tofile=f"{name} (formatted)",
                 )
             )
-        else:
+        if not (args.check or args.diff):
             write_file_atomically(Path(name), formatted)
             print(f"reformatted {name}", file=sys.stderr)
-    if args.check and unformatted:
+    if (args.check or args.diff) and unformatted:
         return 1
     return 0

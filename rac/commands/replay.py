@@ -121,13 +121,16 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         require_matplotlib()
     model = replayable(load_and_compile(args.model, quiet=args.quiet))
-    truth = truth_for(args.runs, args.truth)
+    truth_notes: list[str] = []
+    truth = truth_for(args.runs, args.truth, truth_notes)
     if truth is not None and model.theory.model is not None:
         checked_truth(truth, [model.theory.model], quiet=args.quiet)
     started = time.perf_counter()
     inputs = load_runs(args.runs, properties_for(args.runs, args.properties), needs_of([model]))
+    if truth is not None:
+        truth = truth.fitted(inputs.duration)
     if not args.quiet:
-        for note in inputs.notes:
+        for note in [*truth_notes, *inputs.notes]:
             print(f"note: {note}", file=sys.stderr)
     options = ReplayOptions(diagnose_every=args.diagnose_every, max_card=args.max_card)
     progress = _Progress(inputs.duration) if not args.quiet and sys.stderr.isatty() else None

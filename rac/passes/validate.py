@@ -132,8 +132,12 @@ def check_duplicates(model: Model) -> Iterator[Diagnostic]:
 
 def check_references(model: Model) -> Iterator[Diagnostic]:
     """Every hardware and topic a node names is declared."""
+    yield from _hardware_references(model)
+    yield from _topic_references(model)
+
+
+def _hardware_references(model: Model) -> Iterator[Diagnostic]:
     hardware = model.hardware_by_name()
-    topics = model.topic_by_name()
     nodes = {n.name.value: n for n in model.nodes}
     for node in model.nodes:
         for hw in node.drives:
@@ -149,6 +153,15 @@ def check_references(model: Model) -> Iterator[Diagnostic]:
             elif hw.value not in hardware:
                 msg = f"node '{node.name.value}' drives undefined hardware '{hw.value}'"
                 yield _error("RAC011", msg, hw.span, did_you_mean(hw.value, hardware))
+
+
+def _topic_references(model: Model) -> Iterator[Diagnostic]:
+    """One RAC012 per undefined topic, at its first use: a misspelling has a did-you-mean; a
+    topic used in several places and close to no declared one was not declared, and the
+    hint says so (and where else it is used) instead of one error per use."""
+    topics = model.topic_by_name()
+    uses: dict[str, list[tuple[Name, str, str]]] = {}
+    for node in model.nodes:
         used = [
             *((t, "subscribes") for t in node.subscribes),
             *((p.topic, "publishes") for p in node.publishes),
@@ -156,8 +169,17 @@ def check_references(model: Model) -> Iterator[Diagnostic]:
         ]
         for ref, verb in used:
             if ref.value not in topics:
-                msg = f"node '{node.name.value}' {verb} undefined topic '{ref.value}'"
-                yield _error("RAC012", msg, ref.span, did_you_mean(ref.value, topics))
+                uses.setdefault(ref.value, []).append((ref, verb, node.name.value))
+    for name, found in uses.items():
+        ref, verb, node_name = found[0]
+        hint = did_you_mean(name, topics)
+        if hint is None:
+            others = sorted({n for _, _, n in found[1:]} - {node_name})
+            hint = f"declare it: 'topic {name} : PACKAGE/Type'" + (
+                f" (node {', '.join(repr(n) for n in others)} uses it too)" if others else ""
+            )
+        msg = f"node '{node_name}' {verb} undefined topic '{name}'"
+        yield _error("RAC012", msg, ref.span, hint)
 
 
 def check_duplicate_statements(model: Model) -> Iterator[Diagnostic]:
@@ -194,10 +216,16 @@ def check_duplicate_statements(model: Model) -> Iterator[Diagnostic]:
 
 def check_affected_by(model: Model) -> Iterator[Diagnostic]:
     """δ_aff(n, τ) ⊆ δ_in(n), and τ ∉ δ_aff(n, τ) (Proposition 4.1)."""
+    topics = model.topic_by_name()
     for node in model.nodes:
         inputs = {t.value for t in node.subscribes}
+        # A misspelt subscription is RAC012's, with its did-you-mean: the input it meant is
+        # not reported again here as not subscribed.
+        misspelt = [t for t in inputs if t not in topics]
         for pub in node.publishes:
             for ref in pub.affected_by:
+                if any(did_you_mean(t, [ref.value]) for t in misspelt):
+                    continue
                 if ref.value == pub.topic.value:
                     msg = f"topic '{ref.value}' cannot be among its own inputs (Proposition 4.1)"
                     yield _error("RAC021", msg, ref.span, "remove it from the 'from' list")
@@ -352,6 +380,32 @@ def _number_problems(model: Model) -> Iterator[Diagnostic]:
             yield _error("RAC007", f"{what.format(name)} {shown} is {problem}", span)
 
 
+# A GObs window holds 10 messages by default (docs/language.md); one that holds fewer than
+# WINDOW_MIN_MESSAGES, or more than WINDOW_MAX_MESSAGES, is almost surely a slip of unit.
+WINDOW_MIN_MESSAGES = 2
+WINDOW_MAX_MESSAGES = 1000
+
+
+def _window_range(
+    name: str, window_s: float, rate_hz: float, span: Span | None
+) -> Iterator[Diagnostic]:
+    """RAC133 (warning) for a window far outside the sensible range of its rate."""
+    messages = window_s * rate_hz
+    default = f"the default is 10 messages, {10 / rate_hz:g} s"
+    if messages < WINDOW_MIN_MESSAGES:
+        msg = (
+            f"topic '{name}': window {window_s:g} s holds {messages:.3g} messages at "
+            f"{rate_hz:g} Hz; the observer cannot measure a rate from so few"
+        )
+        yield _warning("RAC133", msg, span, f"{default}; ms or s?")
+    elif messages > WINDOW_MAX_MESSAGES:
+        msg = (
+            f"topic '{name}': window {window_s:g} s holds {messages:,.0f} messages at "
+            f"{rate_hz:g} Hz; a fault on it shows up to {window_s:g} s late"
+        )
+        yield _warning("RAC133", msg, span, f"{default}; ms or s?")
+
+
 def check_values(model: Model) -> Iterator[Diagnostic]:
     """Rates, limits and thresholds are positive and consistent."""
     for t in model.topics:
@@ -368,9 +422,16 @@ def check_values(model: Model) -> Iterator[Diagnostic]:
             )
         tol = t.rate_tolerance_hz
         if tol is not None and t.rate_hz is not None and not 0 <= tol < t.rate_hz:
-            yield _error("RAC029", f"topic '{name}': tolerance must be in [0, rate)", t.span)
+            msg = (
+                f"topic '{name}': tolerance {tol:g} Hz must be in [0, rate), "
+                f"below the rate {t.rate_hz:g} Hz"
+            )
+            hint = f"a tolerance is what the rate may deviate by: e.g. '+- {t.rate_hz / 10:g} Hz'"
+            yield _error("RAC029", msg, t.span, hint)
         if t.window_s is not None and t.window_s <= 0:
             yield _error("RAC029", f"topic '{name}': window must be above 0 s", t.span)
+        elif t.window_s is not None and t.rate_hz is not None and t.rate_hz > 0:
+            yield from _window_range(name, t.window_s, t.rate_hz, t.span)
     for n in model.nodes:
         lim = n.limits
         if (lim.cpu is not None and lim.cpu <= 0) or (lim.mem is not None and lim.mem <= 0):

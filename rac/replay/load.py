@@ -89,12 +89,25 @@ def load_runs(runs: Sequence[str], properties: Sequence[str | None], needs: Need
     )
 
 
-def truth_for(runs: Sequence[str], explicit: str | None) -> GroundTruth | None:
-    """The injected faults: the file given, else RUN.faults.yaml beside a single RUN."""
+def truth_for(
+    runs: Sequence[str], explicit: str | None, notes: list[str] | None = None
+) -> GroundTruth | None:
+    """The injected faults: the file given, else RUN.faults.yaml beside a single RUN.  With
+    ``notes``, a faults file found beside the run that cannot be used is a note there and
+    no ground truth (the replay goes on); without, its RAC085/RAC086 error."""
     if explicit is not None:
         return load_truth(explicit)
     if len(runs) == 1:
         path = truth_path(Path(runs[0]))
         if is_file(path):
-            return load_truth(path)
+            try:
+                return load_truth(path)
+            except RacError as err:
+                if notes is None:
+                    raise
+                first = err.diagnostics[0]
+                notes.append(
+                    f"{path} is not a usable faults file ({first.code}: {first.message}); "
+                    "replaying without ground truth"
+                )
     return None

@@ -8,6 +8,7 @@ the engines of :mod:`rac.runtime`.
 from __future__ import annotations
 
 import importlib
+import os
 import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -24,8 +25,43 @@ HINT = (
 )
 
 
+PROFILES_V2 = "FASTRTPS_DEFAULT_PROFILES_FILE"  # what Fast DDS 2 (Humble, Jazzy) reads
+PROFILES_V3 = "FASTDDS_DEFAULT_PROFILES_FILE"  # what Fast DDS 3 reads; it warns about the other
+
+
+def fastdds_major() -> int | None:
+    """The major version of the Fast DDS this Python's rclpy uses, when it can be told: the
+    PyPI wheels' metadata, else the ROS distribution (Humble, Iron, Jazzy: 2)."""
+    import importlib.metadata
+
+    for dist, major in (("ros-fastdds", 3), ("ros-fastrtps", None)):
+        try:
+            version = importlib.metadata.version(dist)
+        except importlib.metadata.PackageNotFoundError:
+            continue
+        return major or int(version.split(".")[0])
+    distro = os.environ.get("ROS_DISTRO", "")
+    return 2 if distro in ("humble", "iron", "jazzy") else None
+
+
+def align_fastdds_profiles(env: dict[str, str] | Any, major: int | None) -> None:
+    """One profiles file named either way reaches the Fast DDS at hand under the name it
+    reads: FASTDDS_DEFAULT_PROFILES_FILE (the current name) works with Fast DDS 2 too, and
+    FASTRTPS_DEFAULT_PROFILES_FILE does not draw Fast DDS 3's deprecation warning."""
+    profile = env.get(PROFILES_V3) or env.get(PROFILES_V2)
+    if not profile or major is None:
+        return
+    if major >= 3:
+        env[PROFILES_V3] = profile
+        env.pop(PROFILES_V2, None)
+    else:
+        env[PROFILES_V2] = profile
+
+
 def require_rclpy() -> Any:
-    """rclpy, or RAC116 saying how to get it."""
+    """rclpy, or RAC116 saying how to get it; the Fast DDS profile variable aligned first
+    (:func:`align_fastdds_profiles`), for this process and those it starts."""
+    align_fastdds_profiles(os.environ, fastdds_major())
     try:
         import rclpy
     except ImportError as err:
@@ -136,13 +172,22 @@ class Session:
 
     def close(self) -> None:
         # The spin thread must end before the process does (else the C++ side aborts).
-        if self.context.ok():
-            self.context.try_shutdown()
+        self._shutdown()
         self.executor.shutdown(timeout_sec=1.0)
         self._thread.join(2.0)
         self.node.destroy_node()
-        if self.context.ok():
-            self.context.try_shutdown()
+        self._shutdown()
+
+    def _shutdown(self) -> None:
+        """Shut the context down unless rclpy's signal handler did it meanwhile: between
+        ``ok()`` and ``try_shutdown()`` a Ctrl-C can shut it down, and rclpy then raises
+        RCLError ("rcl_shutdown already called"), a traceback at every node's stop."""
+        try:
+            if self.context.ok():
+                self.context.try_shutdown()
+        except Exception:
+            if self.context.ok():
+                raise
 
 
 def reliable(depth: int = 10, latched: bool = False) -> Any:

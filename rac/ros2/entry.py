@@ -8,13 +8,23 @@ from rac.ros2 import common
 
 
 def main(command: str, argv: Sequence[str]) -> int:
+    """Run the node; SIGINT (Ctrl-C, ros2 launch or racc run stopping it) is a clean end:
+    exit 0 and no traceback (rclpy's handler shuts the context down, then raises
+    KeyboardInterrupt wherever the main thread is)."""
     args, ros_args = common.split_ros_args(argv)
     common.ROS_ARGS[:] = ros_args
-    if command == "demo-node":
-        return demo_node(args)
-    from rac.cli import main as racc
+    try:
+        if command == "demo-node":
+            return demo_node(args)
+        from rac.cli import main as racc
 
-    return racc([command, "--ros", "2", *args])
+        code = racc([command, "--ros", "2", *args])
+    except KeyboardInterrupt:
+        return 0
+    return 0 if code == INTERRUPTED else code
+
+
+INTERRUPTED = 130  # racc's exit code after a KeyboardInterrupt (rac.cli)
 
 
 def demo_node(argv: Sequence[str]) -> int:

@@ -163,6 +163,11 @@ def command_line(node: LaunchNode) -> list[str]:
     exe = package_prefix(node.package) / "lib" / node.package / node.executable
     if not os.access(exe, os.X_OK):
         raise RacError([Diagnostic("RAC118", f"package '{node.package}' has no executable {exe}")])
+    return [str(exe), *node_arguments(node)]
+
+
+def node_arguments(node: LaunchNode) -> list[str]:
+    """What follows the executable on the command line: its args, then the ROS arguments."""
     ros = list(node.ros_args)
     if node.name:
         ros += ["-r", f"__node:={node.name}"]
@@ -172,4 +177,4 @@ def command_line(node: LaunchNode) -> list[str]:
         ros += ["-p", f"{key}:={value}"]
     for a, b in node.remaps:
         ros += ["-r", f"{a}:={b}"]
-    return [str(exe), *node.args, *(["--ros-args", *ros] if ros else [])]
+    return [*node.args, *(["--ros-args", *ros] if ros else [])]

@@ -17,7 +17,9 @@ components a correct diagnosis names::
 
 The file is composed (not just loaded) so that every problem names its line and column:
 RAC085 for what is not such a file (YAML syntax, keys, types), RAC086 for values that do
-not fit (times outside the recording, culprits the model lacks).
+not fit (times outside the recording, culprits the model lacks).  ``robot`` and
+``duration`` may be left out: the model names the robot, and the recording knows its
+duration (a fault without ``end`` then lasts to the recording's end: :meth:`GroundTruth.fitted`).
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ import json
 import math
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import yaml
@@ -62,14 +64,25 @@ class InjectedFault:
 
 @dataclass(frozen=True, slots=True)
 class GroundTruth:
-    robot: str
-    duration: float  # seconds
+    robot: str  # "" when the file names none
+    duration: float | None  # seconds; None when the file gives none (the recording's, then)
     faults: tuple[InjectedFault, ...]  # by start, end, kind, target
     span: Span | None = field(default=None, compare=False)
     source: str | None = field(default=None, compare=False, repr=False)  # the file's text
 
     def active(self, t: float) -> tuple[InjectedFault, ...]:
         return tuple(f for f in self.faults if f.active(t))
+
+    def fitted(self, recording_s: float) -> GroundTruth:
+        """With the recording's duration where the file gave none: the faults that last to
+        the end (no ``end`` in the file) end with the recording."""
+        if self.duration is not None:
+            return self
+        faults = tuple(
+            f if f.end <= recording_s else replace(f, end=max(recording_s, f.start))
+            for f in self.faults
+        )
+        return replace(self, duration=recording_s, faults=faults)
 
 
 def beside(run: Path, suffix: str) -> Path:
@@ -128,8 +141,9 @@ def dump_truth(truth: GroundTruth, run_name: str) -> str:
     lines = [
         f"# Faults injected by racc synth into {name}, seconds from the start of the recording.",
         f"robot: {_text(truth.robot)}",
-        f"duration: {_number(truth.duration)}",
     ]
+    if truth.duration is not None:
+        lines.append(f"duration: {_number(truth.duration)}")
     if not truth.faults:
         lines.append("faults: []")
     else:
@@ -223,7 +237,8 @@ def _fault(reader: _Reader, node: yaml.Node, duration: float | None) -> Injected
     kind = reader.name(values["kind"], "'kind'")
     target = reader.name(values["target"], "'target'")
     start = reader.number(values["start"], "'start'")
-    end = reader.number(values["end"], "'end'") if "end" in values else duration
+    to_the_end = math.inf if duration is None else duration
+    end = reader.number(values["end"], "'end'") if "end" in values else to_the_end
     culprits = reader.names(values["culprits"], "'culprits'")
     if kind is None or target is None or start is None or end is None or culprits is None:
         return None
@@ -251,17 +266,16 @@ def parse_truth(text: str, file: str) -> GroundTruth:
         raise RacError([yaml_error_diagnostic(err, file, "RAC085")], text) from None
     hint = "see 'Ground truth' in docs/learning.md"
     if root is None:
-        message = "an empty faults file: it needs robot, duration and faults"
+        message = "an empty faults file: it needs at least 'faults' (and may give robot, duration)"
         raise RacError([Diagnostic("RAC085", message, Span(file, 1, 1, 1, 1), hint=hint)], text)
     reader = _Reader(file)
-    values = reader.mapping(root, TOP_KEYS, TOP_KEYS, "a faults file")
+    values = reader.mapping(root, TOP_KEYS, ("faults",), "a faults file")
     if values is None:
         raise RacError(reader.errors, text)
-    robot = reader.name(values["robot"], "'robot'")
-    duration = reader.number(values["duration"], "'duration'")
+    robot = reader.name(values["robot"], "'robot'") if "robot" in values else ""
+    duration = reader.number(values["duration"], "'duration'") if "duration" in values else None
     if duration is not None and duration <= 0:
         reader.unfit(values["duration"], "'duration' must be above 0 s")
-        duration = None
     faults_node = values["faults"]
     items: list[yaml.Node] = []
     if isinstance(faults_node, yaml.SequenceNode):
@@ -269,7 +283,7 @@ def parse_truth(text: str, file: str) -> GroundTruth:
     elif not (isinstance(faults_node, yaml.ScalarNode) and faults_node.tag == _NULL):
         reader.bad(faults_node, "'faults' must be a list (write 'faults: []' for none)")
     faults = [_fault(reader, item, duration) for item in items]
-    if reader.errors or robot is None or duration is None:
+    if reader.errors or robot is None:
         raise RacError(reader.errors, text)
     found = sorted((f for f in faults if f is not None), key=_sort_key)
     return GroundTruth(robot, duration, tuple(found), _span(file, root), text)
@@ -292,7 +306,7 @@ def check_truth(
     names = sorted({m.name.value for m in models})
     out = []
     where = f"'{names[0]}'" if len(names) == 1 else "any of the models"
-    if robot and names and truth.robot not in names:
+    if robot and names and truth.robot and truth.robot not in names:
         message = f"the ground truth is for robot '{truth.robot}', not {where}"
         advice = "scores mean something only against the robot the recording was made on"
         out.append(Diagnostic("RAC107", message, truth.span, Severity.WARNING, advice))
