@@ -88,6 +88,7 @@ def watches(model: Model, observers: Iterable[ObserverSpec]) -> dict[str, list[W
     """Drawn id (a node's, a device's or ``topic:NAME``) -> the observers watching it."""
     hardware = model.hardware_by_name()
     channels = {h.name.value: h.channel for h in model.hardware if h.switchable}
+    by_atom = {mangle(h): h for h in channels}  # an HObs atom's argument -> the device
     out: dict[str, list[Watch]] = {}
 
     def add(key: str, watch: Watch) -> None:
@@ -107,7 +108,7 @@ def watches(model: Model, observers: Iterable[ObserverSpec]) -> dict[str, list[W
                 add(owner, Watch(spec.kind, text, spec.atoms))
         elif spec.kind == "HObs":
             for atom in spec.atoms:
-                name = next((h for h in channels if mangle(h) == atom.args[0]), None)
+                name = by_atom.get(atom.args[0])
                 if name is not None:
                     add(name, Watch(spec.kind, f"board channel {channels[name]} power", (atom,)))
         else:  # BiQObs, IObs: both topics of the pair

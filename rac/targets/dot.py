@@ -237,13 +237,15 @@ def emit_dot(compiled: Compiled, options: EmitOptions) -> str:
 
 def emit_diagram(model: Model, observers: Iterable[ObserverSpec], view: View) -> str:
     """The DOT text of ``view`` of ``model``; pure."""
-    watched = watches(model, observers)
+    summary = view.summary and not view.everything and view.focus is None
+    # The summary shows no single observer: it need not turn 39,000 of them around.
+    watched = {} if summary and view.health is None else watches(model, observers)
     health = marks(model, watched, view.health) if view.health is not None else None
     keys = component_keys(model)
     undetected: dict[str, tuple[str, ...]] = {}
     for component, modes in view.undetected or ():
         undetected[keys.get(component, component)] = modes
-    if view.summary and not view.everything and view.focus is None:
+    if summary:
         scene, clusters = _summary(model, undetected, health), dict[str, list[_Item]]()
     else:
         scene, clusters = _detailed(model, view, watched, undetected, health)
@@ -275,40 +277,9 @@ def _detailed(
     if prefix:
         scene.notes.append(f"names under {prefix}/ are drawn without it")
 
-    folded: dict[str, int] = {}
-    folded_infra: list[str] = []
-    folded_single = 0
-    visible: list[str] = []
-    for name in top.names:
-        touching = top.touching(name)
-        if not any(n in shown for n in touching) and (drawn is not None or touching):
-            continue  # outside the focus (an unused topic is folded below)
-        is_watched = TOPIC_ID + name in watched
-        fold = not view.everything and not is_watched
-        fold = fold and (len(touching) <= 1 or is_infrastructure(name))
-        if fold:
-            if is_infrastructure(name):
-                folded_infra.append(name)
-            else:
-                folded_single += 1
-            for n in touching:
-                folded[n] = folded.get(n, 0) + 1
-            continue
-        visible.append(name)
-    if folded_single:
-        scene.notes.append(
-            f"folded: {folded_single} topic(s) that at most one node touches and no observer "
-            "watches (counted on the node)"
-        )
-    if folded_infra:
-        listed = ", ".join(_short(t, prefix) for t in folded_infra[:6])
-        more = f" and {len(folded_infra) - 6} more" if len(folded_infra) > 6 else ""
-        scene.notes.append(f"folded: unobserved infrastructure topics {listed}{more}")
-    if folded_single or folded_infra:
-        scene.legend["folded"] = None
-        scene.notes.append("--all draws every topic")
-
-    _draw_components(model, nodes, scene, watched, undetected, health, folded, prefix, view)
+    visible, folded = _fold(top, shown, drawn is not None, watched, view.everything, scene)
+    marking = _Marking(watched, undetected, health, view.focus)
+    _draw_components(model, nodes, scene, marking, folded)
     _draw_topics(top, visible, shown, scene, watched, health, prefix)
     _relations(model, scene)
     clusters: dict[str, list[_Item]] = {}
@@ -317,6 +288,52 @@ def _detailed(
     if len(clusters) > 1 or "" not in clusters:
         scene.legend["namespace"] = None
     return scene, clusters
+
+
+def _fold(
+    top: _Topology,
+    shown: set[str],
+    focused: bool,
+    watched: Mapping[str, list[Watch]],
+    everything: bool,
+    scene: _Scene,
+) -> tuple[list[str], dict[str, int]]:
+    """The topics to draw, and per node how many of its topics are folded into its count.
+
+    Folded: a topic that at most one node touches and no observer watches, and an unobserved
+    infrastructure topic.  A focused view leaves out the topics of nodes outside it.
+    """
+    folded: dict[str, int] = {}
+    infrastructure: list[str] = []
+    single = 0
+    visible: list[str] = []
+    for name in top.names:
+        touching = top.touching(name)
+        if not any(n in shown for n in touching) and (focused or touching):
+            continue  # outside the focus (an unused topic is folded below)
+        fold = not everything and TOPIC_ID + name not in watched
+        if fold and (len(touching) <= 1 or is_infrastructure(name)):
+            if is_infrastructure(name):
+                infrastructure.append(name)
+            else:
+                single += 1
+            for n in touching:
+                folded[n] = folded.get(n, 0) + 1
+            continue
+        visible.append(name)
+    if single:
+        scene.notes.append(
+            f"folded: {single} topic(s) that at most one node touches and no observer "
+            "watches (counted on the node)"
+        )
+    if infrastructure:
+        listed = ", ".join(_short(t, scene.prefix) for t in infrastructure[:6])
+        more = f" and {len(infrastructure) - 6} more" if len(infrastructure) > 6 else ""
+        scene.notes.append(f"folded: unobserved infrastructure topics {listed}{more}")
+    if single or infrastructure:
+        scene.legend["folded"] = None
+        scene.notes.append("--all draws every topic")
+    return visible, folded
 
 
 def _common_namespace(names: list[str]) -> str:
@@ -341,46 +358,32 @@ def _cluster_of(name: str, prefix: str) -> str:
     return "" if space == prefix else space
 
 
+@dataclass(frozen=True, slots=True)
+class _Marking:
+    """What decides how a component looks beyond its class: observers, analysis, health."""
+
+    watched: Mapping[str, list[Watch]]
+    undetected: Mapping[str, tuple[str, ...]]
+    health: Marks | None
+    focus: str | None
+
+
 def _draw_components(
     model: Model,
     nodes: list[Node],
     scene: _Scene,
-    watched: Mapping[str, list[Watch]],
-    undetected: Mapping[str, tuple[str, ...]],
-    health: Marks | None,
+    marking: _Marking,
     folded: Mapping[str, int],
-    prefix: str,
-    view: View,
 ) -> None:
     switchable = {h.name.value for h in model.hardware if h.switchable}
     hardware = model.hardware_by_name()
-    hardware_names = set(hardware)
-    driven: dict[str, str] = {}
+    driven: dict[str, str] = {}  # device -> its driver's cluster
     first = len(scene.items)  # hardware goes before the nodes: above its driver
     for node in nodes:
-        kind = node_class(node, switchable, hardware_names) if node.drives else "n"
-        scene.legend[kind] = None
+        kind = node_class(node, switchable, set(hardware)) if node.drives else "n"
         name = node.name.value
-        cluster = _cluster_of(name, prefix)
-        lines = []
-        limits = format_limits(node.limits)
-        if limits:
-            lines.append(limits.replace(", ", " · "))
-        if node.diagnostics:
-            lines.append("reports " + ", ".join(d.value for d in node.diagnostics))
-        if folded.get(name):
-            lines.append(f"+{folded[name]} topic{'s' if folded[name] != 1 else ''}")
-        tip = [f"{name}: {CLASS_NAMES[kind]}"]
-        if node.drives:
-            tip.append("drives " + ", ".join(h.value for h in node.drives))
-        tip += _watch_lines(watched.get(name, []))
-        attrs = STYLE[kind]
-        attrs, warn = _marked(name, attrs, undetected, health, scene, tip)
-        if view.focus is not None and name == view.focus:
-            attrs += f', penwidth=3, color="{COLOURS["focus"]}"'
-        shown = name[len(cluster) + 1 :] if cluster else _short(name, prefix)
-        label = _label(shown, lines, warn, dark=kind == "sn" and health is None)
-        scene.items.append(_Item(name, attrs, label, "\n".join(tip), cluster))
+        cluster = _cluster_of(name, scene.prefix)
+        scene.items.append(_node_item(node, kind, cluster, scene, marking, folded.get(name, 0)))
         for h in node.drives:
             if h.value in hardware and h.value not in driven:
                 driven[h.value] = cluster  # a device is drawn in its driver's namespace
@@ -389,10 +392,9 @@ def _draw_components(
                     f"tooltip={quote(f'{name} drives {h.value}')}];\n"
                 )
                 scene.legend["hardware_link"] = None
-
     for hw in model.hardware:
         name = hw.name.value
-        if name not in driven and view.focus is not None and name != view.focus:
+        if name not in driven and marking.focus is not None and name != marking.focus:
             continue
         scene.legend["switchable" if hw.switchable else "hardware"] = None
         tip = [
@@ -400,12 +402,37 @@ def _draw_components(
             if hw.switchable
             else f"{name}: hardware"
         ]
-        tip += _watch_lines(watched.get(name, []))
-        attrs, warn = _marked(name, STYLE["hardware"], undetected, health, scene, tip)
-        lines = [f"ch {hw.channel}"] if hw.switchable else []
-        label = _label(name, lines, warn, dark=False)
+        tip += _watch_lines(marking.watched.get(name, []))
+        attrs, warn = _marked(name, STYLE["hardware"], marking, scene, tip)
+        label = _label(name, [f"ch {hw.channel}"] if hw.switchable else [], warn, dark=False)
         scene.items.insert(first, _Item(name, attrs, label, "\n".join(tip), driven.get(name, "")))
         first += 1
+
+
+def _node_item(
+    node: Node, kind: str, cluster: str, scene: _Scene, marking: _Marking, folded: int
+) -> _Item:
+    """A node: its name, limits, reports and folded count; its observers in the tooltip."""
+    scene.legend[kind] = None
+    name = node.name.value
+    lines = []
+    limits = format_limits(node.limits)
+    if limits:
+        lines.append(limits.replace(", ", " · "))
+    if node.diagnostics:
+        lines.append("reports " + ", ".join(d.value for d in node.diagnostics))
+    if folded:
+        lines.append(f"+{folded} topic{'s' if folded != 1 else ''}")
+    tip = [f"{name}: {CLASS_NAMES[kind]}"]
+    if node.drives:
+        tip.append("drives " + ", ".join(h.value for h in node.drives))
+    tip += _watch_lines(marking.watched.get(name, []))
+    attrs, warn = _marked(name, STYLE[kind], marking, scene, tip)
+    if name == marking.focus:
+        attrs += f', penwidth=3, color="{COLOURS["focus"]}"'
+    shown = name[len(cluster) + 1 :] if cluster else _short(name, scene.prefix)
+    label = _label(shown, lines, warn, dark=kind == "sn" and marking.health is None)
+    return _Item(name, attrs, label, "\n".join(tip), cluster)
 
 
 def _watch_lines(watch_list: list[Watch]) -> list[str]:
@@ -413,16 +440,12 @@ def _watch_lines(watch_list: list[Watch]) -> list[str]:
 
 
 def _marked(
-    name: str,
-    attrs: str,
-    undetected: Mapping[str, tuple[str, ...]],
-    health: Marks | None,
-    scene: _Scene,
-    tip: list[str],
+    name: str, attrs: str, marking: _Marking, scene: _Scene, tip: list[str]
 ) -> tuple[str, str]:
     """The attributes with the coverage and health marks, and a warning line for the label."""
     warn = ""
-    modes = undetected.get(name)
+    health = marking.health
+    modes = marking.undetected.get(name)
     if modes:
         attrs += f', style="filled,dashed", penwidth=2, color="{COLOURS["undetected"]}"'
         warn = "unseen: " + ", ".join(modes)
@@ -563,19 +586,41 @@ def _summary(
     """One box per namespace: its nodes, hardware, topics and unseen faults; arrows between
     namespaces count the topics that cross."""
     scene = _Scene()
-    prefix = _common_namespace([n.name.value for n in model.nodes])
+    groups = _namespace_groups(model)
+    owner = {n.name.value: g for g, members in groups.items() for n in members}
+    inside, crossing = _flows(model, owner)
+    for g, members in groups.items():
+        scene.items.append(_group_item(g, members, inside.get(g, 0), undetected, health, scene))
+    scene.legend["group"] = None
+    _flow_edges(scene, crossing, len(groups))
+    why = f" (over {SUMMARY_ABOVE_NODES} nodes)" if len(model.nodes) > SUMMARY_ABOVE_NODES else ""
+    scene.notes.append(
+        f"summary of {len(model.nodes):,} nodes in {len(groups):,} namespaces{why}; "
+        "racc diagram MODEL --focus NAME or --all draws the detail"
+    )
+    relations = len(model.related) + len(model.intervals)
+    if relations:
+        scene.relations = [f"{relations:,} related pairs and intervals"]
+    return scene
 
-    def group(name: str) -> str:
+
+def _namespace_groups(model: Model) -> dict[str, list[Node]]:
+    """Nodes by the first namespace level below the one they all share."""
+    prefix = _common_namespace([n.name.value for n in model.nodes])
+    groups: dict[str, list[Node]] = {}
+    for node in model.nodes:
+        name = node.name.value
         rest = _short(name, prefix) if prefix else name.lstrip("/")
         head, sep, _ = rest.partition("/")
-        return (prefix + "/" + head if prefix else "/" + head) if sep else (prefix or "/")
+        group = (prefix + "/" + head if prefix else "/" + head) if sep else (prefix or "/")
+        groups.setdefault(group, []).append(node)
+    return groups
 
-    groups: dict[str, list[Node]] = {}
-    owner: dict[str, str] = {}
-    for node in model.nodes:
-        g = group(node.name.value)
-        groups.setdefault(g, []).append(node)
-        owner[node.name.value] = g
+
+def _flows(
+    model: Model, owner: Mapping[str, str]
+) -> tuple[dict[str, int], dict[tuple[str, str], int]]:
+    """Topics per namespace, and topics from one namespace's publishers to another's readers."""
     crossing: dict[tuple[str, str], int] = {}
     inside: dict[str, int] = {}
     top = _Topology(model)
@@ -588,29 +633,39 @@ def _summary(
         for a in pubs:
             for b in (s for s in subs if s != a):
                 crossing[(a, b)] = crossing.get((a, b), 0) + 1
-    for g, members in groups.items():
-        hardware = sum(len(n.drives) for n in members)
-        lines = [f"{len(members):,} nodes, {hardware:,} hardware", f"{inside.get(g, 0):,} topics"]
-        unseen = sum(1 for n in members if n.name.value in undetected)
-        unseen += sum(1 for n in members for h in n.drives if h.value in undetected)
-        attrs = STYLE["group"]
-        if unseen:
-            lines.append(f"{unseen:,} with faults unseen")
-            attrs += f', penwidth=2, color="{COLOURS["undetected"]}"'
-            scene.legend["undetected"] = None
-        if health is not None:
-            names = {n.name.value for n in members} | {h.value for n in members for h in n.drives}
-            hit = len(names & (health.faulty | health.suspect))
-            if hit:
-                lines.append(f"{hit} diagnosed")
-                attrs += f', fillcolor="{COLOURS["suspect"]}"'
-                scene.legend["suspect"] = None
-        label = "<" + "<BR/>".join([f"<B>{html_text(g)}</B>", *map(html_text, lines)]) + ">"
-        scene.items.append(_Item("group:" + g, attrs, label, g))
-    scene.legend["group"] = None
-    # The heaviest flows only: every pair of 37 namespaces of a 1,000-node robot is 1,051
-    # arrows, which Graphviz takes minutes over and nobody can follow.
-    limit = SUMMARY_ARROWS_PER_BOX * len(groups)
+    return inside, crossing
+
+
+def _group_item(
+    group: str,
+    members: list[Node],
+    topics: int,
+    undetected: Mapping[str, tuple[str, ...]],
+    health: Marks | None,
+    scene: _Scene,
+) -> _Item:
+    hardware = sum(len(n.drives) for n in members)
+    lines = [f"{len(members):,} nodes, {hardware:,} hardware", f"{topics:,} topics"]
+    names = {n.name.value for n in members} | {h.value for n in members for h in n.drives}
+    attrs = STYLE["group"]
+    unseen = len(names & set(undetected))
+    if unseen:
+        lines.append(f"{unseen:,} with faults unseen")
+        attrs += f', penwidth=2, color="{COLOURS["undetected"]}"'
+        scene.legend["undetected"] = None
+    hit = len(names & (health.faulty | health.suspect)) if health is not None else 0
+    if hit:
+        lines.append(f"{hit} diagnosed")
+        attrs += f', fillcolor="{COLOURS["suspect"]}"'
+        scene.legend["suspect"] = None
+    label = "<" + "<BR/>".join([f"<B>{html_text(group)}</B>", *map(html_text, lines)]) + ">"
+    return _Item("group:" + group, attrs, label, group)
+
+
+def _flow_edges(scene: _Scene, crossing: Mapping[tuple[str, str], int], boxes: int) -> None:
+    """The heaviest flows only: every pair of 37 namespaces of a 1,000-node robot is 1,051
+    arrows, which Graphviz takes minutes over and nobody can follow."""
+    limit = SUMMARY_ARROWS_PER_BOX * boxes
     ranked = sorted(crossing.items(), key=lambda item: -item[1])  # stable: ties keep order
     drawn = dict(ranked[:limit])
     if len(ranked) > limit:
@@ -626,15 +681,6 @@ def _summary(
             f"label={quote(f'{n:,} topics' if n != 1 else '1 topic')}, penwidth="
             f"{min(1 + n / 20, 4):.1f}, tooltip={quote(f'{a} → {b}: {n} topics')}];\n"
         )
-    why = f" (over {SUMMARY_ABOVE_NODES} nodes)" if len(model.nodes) > SUMMARY_ABOVE_NODES else ""
-    scene.notes.append(
-        f"summary of {len(model.nodes):,} nodes in {len(groups):,} namespaces{why}; "
-        "racc diagram MODEL --focus NAME or --all draws the detail"
-    )
-    relations = len(model.related) + len(model.intervals)
-    if relations:
-        scene.relations = [f"{relations:,} related pairs and intervals"]
-    return scene
 
 
 # The legend: each key, its symbol (an HTML table cell) and what it means.
