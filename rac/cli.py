@@ -42,6 +42,7 @@ COMMANDS = (
     "replay",
     "evaluate",
     "analyze",
+    "diagram",
     "place",
     "import-model",  # `racc import`: `import` cannot name a module
     "observe",

@@ -169,6 +169,12 @@ CODES: dict[str, str] = {
     "RAC062": "invalid costs file",
     "RAC063": "the LP relaxation failed",
     "RAC064": "invalid tug_diagnosis configuration",
+    # Diagrams (docs/diagrams.md, issue 25).
+    "RAC065": "drawing the format needs Graphviz's dot (missing or failed)",
+    "RAC066": "--focus names no node, hardware or topic of the model",
+    "RAC067": "--diagnosis names a component the model lacks",
+    "RAC068": "the diagram file's suffix names no format",
+    "RAC069": "nothing arrived on /diagnosis for a live diagram",
     "RAC070": "no diagnosis explains the observations",
     "RAC071": "a component to repair has no repair action",
     "RAC072": "the planner is not installed",

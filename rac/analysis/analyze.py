@@ -144,6 +144,14 @@ class Analyzer:
                 mask |= 1 << k
         return mask
 
+    def detects(self, observations: Sequence[Literal]) -> bool:
+        """Whether ``observations`` contradict the all-healthy assumption."""
+        index = self.index
+        base, clash = index.base(observations)
+        return bool(clash) or bool(
+            index.run(base, index.assignment(frozenset(), strong=True)).clash
+        )
+
     def candidates(
         self, observations: Sequence[Literal], universe: Sequence[str] | None = None
     ) -> tuple[bool, tuple[str, ...]]:
@@ -198,6 +206,19 @@ def fault_components(theory: Theory, mode: str) -> tuple[str, ...]:
         return theory.components
     truth = truth_model(theory)
     return tuple(c for c in theory.components if truth.applies(mode, c))
+
+
+def undetected(theory: Theory, modes: Sequence[str]) -> dict[str, tuple[str, ...]]:
+    """Per component, the fault ``modes`` whose report no observer contradicts: the
+    ``detected`` column of :func:`analyze`, without the isolation (one propagation a fault,
+    where isolation costs one a candidate).  Components every mode detects are left out."""
+    analyzer = analyzer_for(theory)
+    missed: dict[str, list[str]] = {}
+    for mode in modes:
+        for c in fault_components(theory, mode):
+            if not analyzer.detects(analyzer.observe(mode, (c,))):
+                missed.setdefault(c, []).append(mode)
+    return {c: tuple(ms) for c, ms in missed.items()}
 
 
 def ambiguity_groups(faults: Sequence[FaultReport]) -> tuple[tuple[str, ...], ...]:

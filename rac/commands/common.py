@@ -344,7 +344,7 @@ def _default_dir_mode() -> int:
     return 0o777 & ~mask
 
 
-def write_file_atomically(path: Path, content: str) -> None:
+def write_file_atomically(path: Path, content: str | bytes) -> None:
     """Replace one file atomically (a temp file beside it, then a rename)."""
     path = resolved_path(path)
     tmp: str | None = None
@@ -360,8 +360,12 @@ def write_file_atomically(path: Path, content: str) -> None:
         except FileNotFoundError:
             mode = 0o666 & _default_dir_mode()
         os.chmod(fd, mode)
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as handle:
-            handle.write(content)
+        if isinstance(content, bytes):
+            with os.fdopen(fd, "wb") as binary:
+                binary.write(content)
+        else:
+            with os.fdopen(fd, "w", encoding="utf-8", newline="") as handle:
+                handle.write(content)
         os.replace(tmp, path)
     except OSError as err:
         if tmp is not None and os.path.exists(tmp):

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import shutil
-import subprocess
 import sys
 from pathlib import Path
 from typing import Any
@@ -18,6 +17,7 @@ from rac.targets import (
     emit_all,
     targets,
 )
+from rac.targets.dot import SUMMARY_ABOVE_NODES
 
 SVG_NOTE = (
     "note: Graphviz 'dot' was not found, so architecture.svg was not written; "
@@ -65,13 +65,9 @@ def render_svg(dot_text: str) -> bytes | None:
     dot = shutil.which("dot")
     if dot is None:
         return None
-    done = subprocess.run(
-        [dot, "-Tsvg"],
-        input=dot_text.encode("utf-8"),
-        capture_output=True,
-        timeout=120,
-        check=False,
-    )
+    from rac.commands.diagram import run_dot
+
+    done = run_dot(dot, dot_text, "svg", 120)
     if done.returncode != 0:
         print(
             f"warning: dot failed: {done.stderr.decode(errors='replace').strip()}", file=sys.stderr
@@ -102,6 +98,13 @@ def _compile(args: argparse.Namespace) -> int:
                 print(SVG_NOTE, file=sys.stderr)
         else:
             files["architecture.svg"] = svg
+    if len(compiled.model.nodes) > SUMMARY_ABOVE_NODES and not args.quiet:
+        print(
+            f"note: {len(compiled.model.nodes):,} nodes (over {SUMMARY_ABOVE_NODES}): "
+            "architecture.dot is the summary, one box per namespace; draw the detail with "
+            f"racc diagram {args.model} --focus NAME -o FILE.svg (or --all)",
+            file=sys.stderr,
+        )
     out = Path(args.output)
     owned = [t.filename for t in targets()] + ["architecture.svg"]
     write_files_atomically(out, files, owned)

@@ -107,6 +107,19 @@ def register(sub: Any) -> None:
         help="draw the timeline to FILE, in the format its suffix names (.png, .svg, .pdf; "
         "PNG for any other)",
     )
+    parser.add_argument(
+        "--diagram-at",
+        metavar="T",
+        type=float,
+        help="draw the architecture as the replay saw it T seconds in: diagnosed components "
+        "and topics whose observers read bad coloured (docs/diagrams.md)",
+    )
+    parser.add_argument(
+        "--diagram",
+        metavar="FILE",
+        default="diagram.svg",
+        help="with --diagram-at: the file, its suffix the format (default: diagram.svg)",
+    )
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
     parser.set_defaults(run=run)
 
@@ -120,7 +133,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.plot:
         require_matplotlib()
-    model = replayable(load_and_compile(args.model, quiet=args.quiet))
+    compiled = load_and_compile(args.model, quiet=args.quiet)
+    model = replayable(compiled)
     truth_notes: list[str] = []
     truth = truth_for(args.runs, args.truth, truth_notes)
     if truth is not None and model.theory.model is not None:
@@ -140,6 +154,10 @@ def run(args: argparse.Namespace) -> int:
     elapsed = time.perf_counter() - started
     if args.output:
         write_file_atomically(Path(args.output), to_jsonl(timeline))
+    if args.diagram_at is not None:
+        from rac.commands.diagram import draw_health
+
+        draw_health(compiled, args.diagram_at, timeline, args.diagram)
     if args.plot:
         title = f"{model.name}: {', '.join(Path(r).name for r in args.runs)}"
         draw(timeline, truth.faults if truth else (), Path(args.plot), title)
