@@ -21,7 +21,7 @@ from typing import Any
 from rac.errors import Diagnostic, RacError
 from rac.ros1.common import CALLER, Ros1Bus, node_uri, proxy, resolve_pid
 from rac.runtime.nodes import RepairJob, run_repair_node
-from rac.runtime.procs import REMOTE, terminate
+from rac.runtime.procs import terminate
 
 
 def load_launch_nodes(path: str) -> dict[str, Any]:
@@ -79,14 +79,17 @@ class Ros1Actuator:
         if proc is not None and proc.is_alive():
             proc.stop()
             return
-        pid = resolve_pid(node)
+        # Only a process proven to be the node's is signalled: the pid a node in a
+        # container answers is not one of this host (1 would be the init process).
+        found = resolve_pid(node)
+        pid = found.pid if found is not None else None
         try:
             uri = node_uri(node)
             if uri is not None:
                 proxy(uri).shutdown(CALLER, "racc repairer: stop_node")
         except OSError:
             pass
-        if pid is not None and pid != REMOTE:
+        if pid is not None:
             threading.Thread(
                 target=terminate, args=(pid, (None, signal.SIGTERM, signal.SIGKILL)), daemon=True
             ).start()

@@ -20,7 +20,15 @@ from rac.diagnosis.theory import known_atoms
 from rac.errors import RacError
 from rac.logic import NEG_PREFIX, Atom
 from rac.observe import ObservationSet, Verdict
-from rac.runtime.status import ERROR, OK, Row, diagnosis_rows, row_verdict, summary_row
+from rac.runtime.status import (
+    ERROR,
+    OK,
+    Row,
+    diagnosis_rows,
+    row_unknown,
+    row_verdict,
+    summary_row,
+)
 
 MIN_GAP_S = 0.2  # between diagnoses triggered by changed observations
 
@@ -55,6 +63,12 @@ class Diagnoser:
             self.unknown.add(plain)
             return False
         changed = self.observations.add(verdict)
+        self._dirty |= changed
+        return changed
+
+    def forget(self, atom: Atom) -> bool:
+        """Θ without ``atom``'s literal (its observer withdrew it); True when Θ changed."""
+        changed = self.observations.discard(atom)
         self._dirty |= changed
         return changed
 
@@ -123,6 +137,10 @@ class EngineLoop:
     def observation_rows(self, rows: Iterable[Row], t: float) -> None:
         with self._lock:
             for row in rows:
+                withdrawn = row_unknown(row)
+                if withdrawn is not None:
+                    self.diagnoser.forget(withdrawn)
+                    continue
                 verdict = row_verdict(row, t)
                 if verdict is not None:
                     self.diagnoser.observe(verdict)

@@ -16,8 +16,9 @@ from rac.logic import Atom
 from rac.observe import ChannelState, DeviceStatus, Event, Message, ObserverBank, Verdict
 from rac.observe.dobs import violations_first
 from rac.passes.observers import ObserverSpec
+from rac.runtime.placement import PlacementView
 from rac.runtime.procs import ProcessProbe
-from rac.runtime.status import Row, literal_row, row_channel
+from rac.runtime.status import Row, literal_row, row_channel, unknown_row
 
 
 class ObserverHost:
@@ -36,6 +37,8 @@ class ObserverHost:
         self.current: dict[Atom, Verdict] = {}
         self.changes: list[Verdict] = []  # since the last ``take_changes``
         self.errors: list[str] = []  # observers that failed on an event, for the log
+        self.extra: dict[Atom, tuple[tuple[str, str], ...]] = {}  # more values of a row
+        self.withdrawn: dict[Atom, float] = {}  # atoms made unknown, since when
         self._lock = threading.Lock()
         self._last_t = float("-inf")
 
@@ -83,7 +86,23 @@ class ObserverHost:
     def _keep(self, verdicts: list[Verdict]) -> None:
         for v in verdicts:
             self.current[v.atom] = v
+            self.withdrawn.pop(v.atom, None)
             self.changes.append(v)
+
+    def withdraw(self, atoms: Iterable[Atom]) -> list[Atom]:
+        """Make atoms unknown (their last verdict no longer holds); the ones that had one."""
+        out = []
+        with self._lock:
+            t = self._now()
+            for atom in atoms:
+                if self.current.pop(atom, None) is not None or atom not in self.withdrawn:
+                    self.withdrawn[atom] = t
+                    out.append(atom)
+        return out
+
+    def annotate(self, atom: Atom, values: tuple[tuple[str, str], ...]) -> None:
+        with self._lock:
+            self.extra[atom] = values
 
     def take_changes(self) -> list[Verdict]:
         with self._lock:
@@ -99,7 +118,11 @@ class ObserverHost:
         """One status per current literal, sorted by atom."""
         with self._lock:
             verdicts = sorted(self.current.values(), key=lambda v: v.atom)
-        return tuple(literal_row(v, self.owner.get(v.atom, "")) for v in verdicts)
+            extra = dict(self.extra)
+            gone = sorted(self.withdrawn.items())
+        rows = [literal_row(v, self.owner.get(v.atom, ""), extra.get(v.atom, ())) for v in verdicts]
+        rows.extend(unknown_row(a, self.owner.get(a, ""), t) for a, t in gone)
+        return tuple(sorted(rows, key=lambda r: r.name))
 
     def all_ok(self) -> bool:
         """Every atom reported, and positively."""
@@ -128,17 +151,32 @@ class HostLoop:
 
     def __init__(self, host: ObserverHost, probe: ProcessProbe, republish_s: float = 1.0) -> None:
         self.host, self.probe, self.republish_s = host, probe, republish_s
+        self.placement = PlacementView(host.specs)
         self._last_publish = float("-inf")
+
+    def _placements(self) -> list[str]:
+        """How each node whose placement changed is watched now: logged, on its
+        ``running`` row, and its unmeasurable properties withdrawn."""
+        host, view, out = self.host, self.placement, []
+        for node, found in self.probe.take_placements():
+            out.append(view.line(host.clock(), node, found))
+            running = view.running.get(node)
+            if running is not None:
+                host.annotate(running, view.values(node, found))
+            for atom in host.withdraw(view.withdrawn(node, found)):
+                out.append(f"t={host.clock():.3f} observation unknown {atom} (no process)")
+        return out
 
     def step(self, now: float) -> HostStep:
         host = self.host
         host.feed(self.probe.sample(host.clock()))
+        placed = self._placements()
         host.advance()
         changes = host.take_changes()
-        lines = tuple(change_line(v, host.owner.get(v.atom, "")) for v in changes)
+        lines = (*placed, *(change_line(v, host.owner.get(v.atom, "")) for v in changes))
         warnings = tuple(f"an observer failed on {e}" for e in host.take_errors()[:5])
         rows = None
-        if changes or now - self._last_publish >= self.republish_s:
+        if changes or placed or now - self._last_publish >= self.republish_s:
             rows = host.rows()
             self._last_publish = now
         return HostStep(lines, warnings, rows)

@@ -9,6 +9,7 @@ import psutil
 import yaml
 
 from rac.learn.graph import INFRASTRUCTURE_TOPICS
+from rac.runtime.procs import Resolved, as_found
 
 RACC_PREFIX = "/racc_"  # racc's own nodes (runtime, recorder, tools) are not the robot's
 
@@ -52,10 +53,11 @@ def properties_rows(t: float, samples: Iterable[tuple[str, float, float]]) -> li
 
 class PropertySampler:
     """cpu and memory of the robot's nodes for the properties CSV.  ``resolve(node)``
-    gives a node's local pid (None or negative: not here); a process is asked for its cpu
-    from the second sample on (psutil measures between two calls)."""
+    gives the node's proven local process (:class:`rac.runtime.placement.Found`; None or no
+    pid: none here); a process is asked for its cpu from the second sample on (psutil
+    measures between two calls)."""
 
-    def __init__(self, resolve: Callable[[str], int | None]) -> None:
+    def __init__(self, resolve: Callable[[str], Resolved]) -> None:
         self.resolve = resolve
         self._procs: dict[str, psutil.Process] = {}
 
@@ -64,11 +66,11 @@ class PropertySampler:
         for node in sorted(set(nodes)):
             proc = self._procs.get(node)
             if proc is None or not proc.is_running():
-                pid = self.resolve(node)
-                if pid is None or pid < 0:
+                found = as_found(self.resolve(node))
+                if found is None or found.pid is None:
                     continue
                 try:
-                    proc = self._procs[node] = psutil.Process(pid)
+                    proc = self._procs[node] = psutil.Process(found.pid)
                     proc.cpu_percent(None)
                 except psutil.Error:
                     pass
