@@ -89,6 +89,21 @@ def node_uri(node: str) -> str | None:
     return str(uri) if code == 1 else None
 
 
+def node_hosts(nodes: Iterable[str]) -> dict[str, str]:
+    """The host of each node's XML-RPC URI, as the master has it (for ``racc record``'s
+    graph: where each node runs)."""
+    out = {}
+    for node in nodes:
+        try:
+            uri = node_uri(node)
+        except (OSError, xmlrpc.client.Error):
+            continue
+        host = urlparse(uri).hostname if uri else None
+        if host:
+            out[node] = host
+    return out
+
+
 def is_local_host(host: str) -> bool:
     return host in LOCAL_HOSTS or host.startswith("127.")
 

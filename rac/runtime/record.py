@@ -3,7 +3,7 @@ properties CSV, in the shapes ``racc learn --graph`` and ``--properties`` read."
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 
 import psutil
 import yaml
@@ -22,8 +22,11 @@ def graph_yaml(
     publishers: Sequence[tuple[str, Sequence[str]]],
     subscribers: Sequence[tuple[str, Sequence[str]]],
     ignore: Iterable[str] = (),
+    hosts: Mapping[str, str] | None = None,
 ) -> str:
-    """The master's getSystemState as the ``--graph`` YAML (nodes with their topics)."""
+    """The master's getSystemState as the ``--graph`` YAML (nodes with their topics, and
+    the host each runs on when ``hosts`` knows it: ROS 1's lookupNode URIs)."""
+    hosts = hosts or {}
     skip = {n.rstrip("/") for n in ignore}
     nodes: dict[str, dict[str, set[str]]] = {}
     for key, pairs in (("publications", publishers), ("subscriptions", subscribers)):
@@ -37,7 +40,10 @@ def graph_yaml(
                 entry[key].add(topic)
     data = {
         "nodes": {
-            name: {k: sorted(v) for k, v in sorted(entry.items())}
+            name: {
+                **{k: sorted(v) for k, v in sorted(entry.items())},
+                **({"host": hosts[name]} if name in hosts else {}),
+            }
             for name, entry in sorted(nodes.items())
         }
     }
