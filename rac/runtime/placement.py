@@ -61,13 +61,43 @@ def in_own_pid_namespace(pid: int) -> bool:
     return own is not None and pid_namespace(pid) == own
 
 
+def listening_inodes(port: int) -> set[str]:
+    """The inodes of the sockets listening on TCP ``port`` in this network namespace (from
+    /proc/net/tcp and tcp6: one read each, where psutil builds every connection of the
+    machine, about 100 ms on a busy one)."""
+    want = f":{port:04X} "
+    found = set()
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        try:
+            with open(table, encoding="ascii") as f:
+                next(f, None)
+                for line in f:
+                    fields = line.split()
+                    # local address, state 0A (LISTEN), inode
+                    if len(fields) > 9 and (fields[1] + " ").endswith(want) and fields[3] == "0A":
+                        found.add(fields[9])
+        except OSError:
+            continue
+    return found
+
+
 def holds_port(pid: int, port: int) -> bool:
     """The process listens on TCP ``port`` (a ROS 1 node's XML-RPC server)."""
-    try:
-        conns = psutil.Process(pid).net_connections(kind="tcp")
-    except psutil.Error:
+    inodes = {f"socket:[{i}]" for i in listening_inodes(port)}
+    if not inodes:
         return False
-    return any(c.laddr and c.laddr.port == port and c.status == psutil.CONN_LISTEN for c in conns)
+    fd_dir = f"/proc/{pid}/fd"
+    try:
+        fds = os.listdir(fd_dir)
+    except OSError:
+        return False
+    for fd in fds:
+        try:
+            if os.readlink(f"{fd_dir}/{fd}") in inodes:
+                return True
+        except OSError:
+            continue
+    return False
 
 
 def names_node(cmdline: Sequence[str], node: str) -> bool:
@@ -90,10 +120,11 @@ def prove_ros1(node: str, pid: int, port: int | None) -> Found:
         return Found(None, f"getPid answered {pid}, which is no process here")
     if not in_own_pid_namespace(pid):
         return Found(None, f"getPid answered {pid}, a process of another PID namespace")
-    if port is not None and holds_port(pid, port):
-        return Found(pid, f"pid {pid} holds its XML-RPC port {port}")
+    # The command line first: reading it costs a fraction of finding a port's socket.
     if names_node(cmdline(pid), node):
         return Found(pid, f"pid {pid}'s command line names it")
+    if port is not None and holds_port(pid, port):
+        return Found(pid, f"pid {pid} holds its XML-RPC port {port}")
     return Found(
         None,
         f"getPid answered {pid}, which neither holds its XML-RPC port {port} nor names it "
