@@ -3,7 +3,10 @@ by line with the time each line came, and stopped by PID (never by name)."""
 
 from __future__ import annotations
 
+import contextlib
+import json
 import os
+import shutil
 import signal
 import socket
 import subprocess
@@ -12,6 +15,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 RACC = [sys.executable, "-m", "rac"]
@@ -129,3 +133,90 @@ def start_roscore(port: int, env: dict[str, str], log: Path) -> subprocess.Popen
         time.sleep(0.2)
     assert rosgraph.is_master_online(uri), "roscore did not come up"
     return core
+
+
+def can_make_netns() -> bool:
+    """``ip netns add`` works here (root, iproute2)."""
+    if os.geteuid() != 0 or shutil.which("ip") is None:
+        return False
+    name = f"racc_probe{os.getpid()}"
+    made = subprocess.run(["ip", "netns", "add", name], capture_output=True, check=False)
+    if made.returncode != 0:
+        return False
+    subprocess.run(["ip", "netns", "del", name], capture_output=True, check=False)
+    return True
+
+
+class NetPair:
+    """Two network namespaces joined by a veth pair: two "computers" on this one, at
+    10.213.X.1 (``a``) and 10.213.X.2 (``b``).  Everything bound inside them is reachable
+    only from them.  :meth:`close` kills what still runs in them (all started by the test)
+    and deletes them, their veth pair with them."""
+
+    def __init__(self) -> None:
+        tag = f"{os.getpid() % 100000}"
+        self.names = {"a": f"raccA{tag}", "b": f"raccB{tag}"}
+        x = os.getpid() % 250 + 1
+        self.addresses = {"a": f"10.213.{x}.1", "b": f"10.213.{x}.2"}
+        self._made: list[str] = []
+
+    def _ip(self, *args: str) -> None:
+        subprocess.run(["ip", *args], check=True, capture_output=True)
+
+    def open(self) -> NetPair:
+        a, b = self.names["a"], self.names["b"]
+        for ns in (a, b):
+            self._ip("netns", "add", ns)
+            self._made.append(ns)
+            self._ip("-n", ns, "link", "set", "lo", "up")
+        veth_a, veth_b = f"v{a[-9:]}", f"v{b[-9:]}"
+        self._ip(
+            "link", "add", veth_a, "netns", a, "type", "veth", "peer", "name", veth_b, "netns", b
+        )
+        for key, ns, dev in (("a", a, veth_a), ("b", b, veth_b)):
+            self._ip("-n", ns, "addr", "add", f"{self.addresses[key]}/24", "dev", dev)
+            self._ip("-n", ns, "link", "set", dev, "up")
+        return self
+
+    def argv(self, which: str, argv: Sequence[str]) -> list[str]:
+        return ["ip", "netns", "exec", self.names[which], *argv]
+
+    def pids(self, which: str) -> list[int]:
+        done = subprocess.run(
+            ["ip", "netns", "pids", self.names[which]], capture_output=True, text=True, check=False
+        )
+        return [int(p) for p in done.stdout.split()]
+
+    def identify(self, pid: int) -> str:
+        done = subprocess.run(
+            ["ip", "netns", "identify", str(pid)], capture_output=True, text=True, check=False
+        )
+        return done.stdout.strip()
+
+    def close(self) -> None:
+        for ns in self._made:
+            for _ in range(3):
+                pids = self.pids("a" if ns == self.names["a"] else "b")
+                if not pids:
+                    break
+                for pid in pids:
+                    with contextlib.suppress(ProcessLookupError):
+                        os.kill(pid, signal.SIGKILL)
+                time.sleep(0.2)
+            subprocess.run(["ip", "netns", "del", ns], capture_output=True, check=False)
+        self._made.clear()
+
+
+def json_lines(watcher: Watcher, since: float = 0.0) -> list[dict[str, Any]]:
+    """The JSON objects a monitor printed one a line (a line that another writer's output
+    cut into is skipped)."""
+    out = []
+    for _, line in watcher.lines_since(since):
+        start = line.find('{"t"')
+        if start < 0:
+            continue
+        try:
+            out.append(json.loads(line[start:]))
+        except json.JSONDecodeError:
+            continue
+    return out

@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from rac.errors import Diagnostic, RacError
+from rac.ros1.agent import routed_actuator
 from rac.ros1.common import CALLER, Ros1Bus, node_uri, proxy, resolve_pid
 from rac.runtime.nodes import RepairJob, run_repair_node
 from rac.runtime.procs import terminate
@@ -115,6 +116,6 @@ def run_repairer(job: RepairJob, name: str = "racc_repairer") -> None:
     bus = Ros1Bus(name)
     actuator = Ros1Actuator(bus.rospy, job.launch_file)
     try:
-        run_repair_node(bus, actuator, job)
+        run_repair_node(bus, routed_actuator(bus.rospy, job, actuator), job)
     finally:
         actuator.shutdown()

@@ -18,6 +18,7 @@ import subprocess
 import threading
 
 from rac.errors import Diagnostic, RacError
+from rac.ros2.agent import routed_actuator
 from rac.ros2.common import Session, reliable
 from rac.ros2.launch import LaunchNode, command_line, load_launch
 from rac.runtime.nodes import RepairJob, run_repair_node
@@ -98,7 +99,8 @@ def run_repairer(job: RepairJob, restart: str | None = None, name: str = "racc_r
     session = Session(name)
     actuator = Ros2Actuator(session, job.launch_file, restart)
     try:
-        run_repair_node(session, actuator, job, after_tick=actuator.reap)
+        routed = routed_actuator(session, job, actuator)
+        run_repair_node(session, routed, job, after_tick=actuator.reap)
     finally:
         actuator.shutdown()
         session.close()

@@ -10,7 +10,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from rac.logic import Atom
 from rac.observe import ChannelState, DeviceStatus, Event, Message, ObserverBank, Verdict
@@ -39,6 +39,9 @@ class ObserverHost:
         self.errors: list[str] = []  # observers that failed on an event, for the log
         self.extra: dict[Atom, tuple[tuple[str, str], ...]] = {}  # more values of a row
         self.withdrawn: dict[Atom, float] = {}  # atoms made unknown, since when
+        # The host's node name, on every row (value "host"): the engine tells hosts apart
+        # by it and makes a silent host's atoms unknown (rac.runtime.hosts).
+        self.source = ""
         self._lock = threading.Lock()
         self._last_t = float("-inf")
 
@@ -122,6 +125,8 @@ class ObserverHost:
             gone = sorted(self.withdrawn.items())
         rows = [literal_row(v, self.owner.get(v.atom, ""), extra.get(v.atom, ())) for v in verdicts]
         rows.extend(unknown_row(a, self.owner.get(a, ""), t) for a, t in gone)
+        if self.source:
+            rows = [replace(r, values=(*r.values, ("host", self.source))) for r in rows]
         return tuple(sorted(rows, key=lambda r: r.name))
 
     def all_ok(self) -> bool:

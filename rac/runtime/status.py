@@ -118,6 +118,17 @@ def row_unknown(row: Row) -> Atom | None:
         return None
 
 
+def row_atom(row: Row) -> Atom | None:
+    """The atom of an ``/observations`` row (None: not one of ours)."""
+    verdict = row_verdict(row, 0.0)
+    if verdict is None:
+        return None
+    atom = verdict.atom
+    if atom.predicate.startswith(NEG_PREFIX):
+        atom = Atom(atom.predicate.removeprefix(NEG_PREFIX), atom.args)
+    return atom
+
+
 def row_verdict(row: Row, t: float) -> Verdict | None:
     """The literal a ``/observations`` row carries (None: not one of ours).
 

@@ -9,7 +9,7 @@ process 1.  The node is watched through the master (``watched: middleware`` on i
 
 from __future__ import annotations
 
-import json
+import contextlib
 import os
 import shutil
 import signal
@@ -35,6 +35,7 @@ from live_procs import (
     chat_model,
     contained_argv,
     free_port,
+    json_lines,
     start_roscore,
     stop,
 )
@@ -105,13 +106,12 @@ def test_a_node_in_another_pid_namespace_is_watched_through_the_master(
     procs.extend(w.proc for w in (monitor, observe, engine))
 
     def rows(since: float = 0.0) -> list[tuple[float, list[Any]]]:
-        out = []
-        for _t, line in monitor.lines_since(since):
-            msg = json.loads(line)
-            if msg["topic"] == "/observations":
-                for row in msg["rows"]:
-                    out.append((msg["t"], row))
-        return out
+        return [
+            (msg["t"], row)
+            for msg in json_lines(monitor, since)
+            if msg["topic"] == "/observations"
+            for row in msg["rows"]
+        ]
 
     def running_middleware() -> float | None:
         for t, (name, level, _, values) in rows():
@@ -136,12 +136,11 @@ def test_a_node_in_another_pid_namespace_is_watched_through_the_master(
         return None
 
     def diagnosed() -> float | None:
-        for t, line in monitor.lines_since(crash):
-            msg = json.loads(line)
+        for msg in json_lines(monitor, crash):
             if msg["topic"] == "/diagnosis" and any(
                 "talker" in row[2].split(",") for row in msg["rows"]
             ):
-                return t
+                return float(msg["t"])
         return None
 
     down = monitor.wait(not_running, 10)
@@ -153,3 +152,77 @@ def test_a_node_in_another_pid_namespace_is_watched_through_the_master(
         f"diagnosed after {named - crash:.2f} s"
     )
     assert down - crash <= 3.0
+
+
+FAKE_DOCKER = """#!/bin/sh
+# A stand-in for docker (no daemon here): the "container" {name} is the talker in its own
+# PID namespace; restart starts it afresh, stop kills it.  Every call is logged.
+echo "$@" >> {dir}/calls
+kill_it() {{ [ -f {dir}/pid ] && kill -9 -- -"$(cat {dir}/pid)" 2>/dev/null; rm -f {dir}/pid; }}
+case "$1" in
+  restart) kill_it; setsid unshare --pid --fork --mount-proc {python} {talker} \\
+             >> {dir}/talker.log 2>&1 & echo $! > {dir}/pid ;;
+  stop) kill_it ;;
+  *) exit 1 ;;
+esac
+"""
+
+
+def test_a_contained_node_is_restarted_by_restarting_its_container(
+    ros: tuple[dict[str, str], list[subprocess.Popen[bytes]]], tmp_path: Path
+) -> None:
+    env, procs = ros
+    (tmp_path / "talker.py").write_text(TALKER, encoding="utf-8")
+    (tmp_path / "monitor.py").write_text(MONITOR, encoding="utf-8")
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    docker = bin_dir / "docker"
+    docker.write_text(
+        FAKE_DOCKER.format(
+            name="chat", dir=tmp_path, python=sys.executable, talker=tmp_path / "talker.py"
+        ),
+        encoding="utf-8",
+    )
+    docker.chmod(0o755)
+    env = {**env, "PATH": f"{bin_dir}:{env['PATH']}"}
+    text = chat_model(tmp_path).read_text(encoding="utf-8")
+    model = chat_model(
+        tmp_path, text.replace("node talker {", "node talker in container chat via docker {")
+    )
+    build = tmp_path / "build"
+    subprocess.run([*RACC, "compile", str(model), "-o", str(build), "--no-svg", "-q"], check=True)
+    subprocess.run([str(docker), "restart", "chat"], env=env, check=True)
+    monitor = Watcher([sys.executable, str(tmp_path / "monitor.py")], env)
+    observe = Watcher([*RACC, "observe", str(build / "observers.yaml")], env)
+    engine = Watcher([*RACC, "engine", str(build / "model.yaml")], env)
+    repairer = Watcher([*RACC, "repairer", str(build / "model.yaml")], env)
+    procs.extend(w.proc for w in (monitor, observe, engine, repairer))
+    try:
+
+        def running(since: float, level: int) -> float | None:
+            for msg in json_lines(monitor, since):
+                if msg["topic"] == "/observations" and any(
+                    r[0] == "running(talker)" and r[1] == level for r in msg["rows"]
+                ):
+                    return float(msg["t"])
+            return None
+
+        assert monitor.wait(lambda: running(0, 0), 30) is not None, observe.text()
+        time.sleep(2.0)
+        crash = time.time()
+        pid = int((tmp_path / "pid").read_text())
+        os.killpg(pid, signal.SIGKILL)  # the node crashes, its "container" with it
+        down = monitor.wait(lambda: running(crash, 2), 10)
+        assert down is not None, "the crash of the contained talker was not seen"
+        back = monitor.wait(lambda: running(down, 0), 25)
+        assert back is not None, repairer.text()
+        calls = (tmp_path / "calls").read_text().split("\n")
+        assert "restart chat" in calls[1:], calls  # the first one is the test's own
+        print(
+            f"\ncontainer restart (ROS 1): not_running {down - crash:.2f} s, running again "
+            f"{back - crash:.2f} s after the kill (docker calls: {calls[1:-1]})"
+        )
+    finally:
+        if (tmp_path / "pid").exists():
+            with contextlib.suppress(ProcessLookupError, ValueError):
+                os.killpg(int((tmp_path / "pid").read_text()), signal.SIGKILL)

@@ -9,7 +9,6 @@ of its topic names it.  Needs root for ``unshare`` (CI is root).
 
 from __future__ import annotations
 
-import json
 import os
 import signal
 import subprocess
@@ -26,7 +25,7 @@ if os.environ.get("RACC_REQUIRE_ROS2") == "1":
 else:
     pytest.importorskip("rclpy", reason="ROS 2 (rclpy) is not importable")
 
-from live_procs import RACC, Watcher, chat_model, contained_argv, stop
+from live_procs import RACC, Watcher, chat_model, contained_argv, json_lines, stop
 
 FASTDDS_PROFILE = Path(__file__).with_name("fastdds_localhost.xml")
 
@@ -97,13 +96,7 @@ def test_a_node_in_another_pid_namespace_is_watched_through_the_graph(
         procs.extend(w.proc for w in (monitor, observe, engine))
 
         def messages(since: float, topic: str) -> list[tuple[float, list[Any]]]:
-            out = []
-            for _, line in monitor.lines_since(since):
-                if line.startswith("{"):
-                    msg = json.loads(line)
-                    if msg["topic"] == topic:
-                        out.append((msg["t"], msg["rows"]))
-            return out
+            return [(m["t"], m["rows"]) for m in json_lines(monitor, since) if m["topic"] == topic]
 
         def rows(since: float = 0.0) -> list[tuple[float, list[Any]]]:
             return [(t, r) for t, rs in messages(since, "/observations") for r in rs]
