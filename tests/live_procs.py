@@ -176,6 +176,8 @@ class NetPair:
         for key, ns, dev in (("a", a, veth_a), ("b", b, veth_b)):
             self._ip("-n", ns, "addr", "add", f"{self.addresses[key]}/24", "dev", dev)
             self._ip("-n", ns, "link", "set", dev, "up")
+            # DDS discovers by multicast: send it over the pair (it stays in the two).
+            self._ip("-n", ns, "route", "add", "224.0.0.0/4", "dev", dev)
         return self
 
     def argv(self, which: str, argv: Sequence[str]) -> list[str]:

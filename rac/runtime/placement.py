@@ -1,7 +1,8 @@
 """Whose process is a node's: the proof that a pid belongs to a node, or why none exists.
 
 A node's process is watched (liveness from the process table, cpu and memory) only when
-it is proven to be the node's: the pid is one of this PID namespace, and the process holds
+it is proven to be the node's: the pid is one of this PID namespace and this host (this
+network namespace), and the process holds
 the node's XML-RPC port (ROS 1) or its command line names the node (``__name:=`` or
 ``__node:=``).  A node whose pid cannot be trusted is watched through the middleware alone
 (the master or the graph, and its topics): its liveness is what the middleware says, and
@@ -41,10 +42,11 @@ class Found:
         return "process" if self.pid is not None else "middleware"
 
 
-def pid_namespace(pid: int | str) -> str | None:
-    """``pid:[inode]`` of a process's PID namespace (None: not readable)."""
+def pid_namespace(pid: int | str, kind: str = "pid") -> str | None:
+    """``pid:[inode]`` of a process's PID namespace (``kind`` "net": ``net:[inode]``, its
+    network namespace); None: not readable."""
     try:
-        return os.readlink(f"/proc/{pid}/ns/pid")
+        return os.readlink(f"/proc/{pid}/ns/{kind}")
     except OSError:
         return None
 
@@ -59,6 +61,14 @@ def in_own_pid_namespace(pid: int) -> bool:
     inside, so a pid it reports about itself is not ours."""
     own = own_pid_namespace()
     return own is not None and pid_namespace(pid) == own
+
+
+def on_this_host(pid: int) -> bool:
+    """The process shares this process's network namespace: the same host as far as the
+    middleware is concerned (a container with its own network, or a second computer
+    simulated by a network namespace, is another host)."""
+    own = pid_namespace("self", "net")
+    return own is not None and pid_namespace(pid, "net") == own
 
 
 def listening_inodes(port: int) -> set[str]:
@@ -120,6 +130,8 @@ def prove_ros1(node: str, pid: int, port: int | None) -> Found:
         return Found(None, f"getPid answered {pid}, which is no process here")
     if not in_own_pid_namespace(pid):
         return Found(None, f"getPid answered {pid}, a process of another PID namespace")
+    if not on_this_host(pid):
+        return Found(None, f"getPid answered {pid}, a process of another network namespace")
     # The command line first: reading it costs a fraction of finding a port's socket.
     if names_node(cmdline(pid), node):
         return Found(pid, f"pid {pid}'s command line names it")
@@ -134,10 +146,13 @@ def prove_ros1(node: str, pid: int, port: int | None) -> Found:
 
 def prove_by_cmdline(pid: int) -> Found:
     """A process found by the ``__node:=`` on its command line (ROS 2), trusted when it is
-    of this PID namespace."""
-    if in_own_pid_namespace(pid):
-        return Found(pid, f"pid {pid}'s command line names it")
-    return Found(None, f"its process {pid} is in another PID namespace (a container): not watched")
+    of this PID namespace and this host."""
+    if not in_own_pid_namespace(pid):
+        why = f"its process {pid} is in another PID namespace (a container): not watched"
+        return Found(None, why)
+    if not on_this_host(pid):
+        return Found(None, f"its process {pid} is in another network namespace: not watched")
+    return Found(pid, f"pid {pid}'s command line names it")
 
 
 # -- what the observer host does with a node's placement ------------------------------------

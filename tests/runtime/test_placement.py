@@ -17,6 +17,7 @@ from pathlib import Path
 
 import psutil
 import pytest
+from live_procs import NetPair, can_make_netns
 
 from rac.diagnosis import load_theory
 from rac.logic import Atom
@@ -130,6 +131,28 @@ def test_a_process_in_another_pid_namespace_is_not_trusted(contained: tuple[int,
     assert prove_by_cmdline(here).pid is None
     assert prove_ros1("talker", here, None).pid is None
     assert prove_ros1("talker", inside, None).pid is None  # our pid 1 is someone else
+
+
+@pytest.mark.skipif(not can_make_netns(), reason="ip netns needs root (CI runs as root)")
+def test_a_process_of_another_host_is_not_trusted() -> None:
+    # Another network namespace stands for another computer (a container with its own
+    # network is one too): a matching command line there is not this host's node.
+    net = NetPair().open()
+    try:
+        proc = subprocess.Popen(
+            net.argv("a", [sys.executable, "-c", "import time; time.sleep(60)", "__node:=t"])
+        )
+        deadline = time.time() + 5
+        while not net.pids("a") and time.time() < deadline:
+            time.sleep(0.05)
+        time.sleep(0.2)
+        assert in_own_pid_namespace(proc.pid)
+        found = prove_by_cmdline(proc.pid)
+        assert found.pid is None and "network namespace" in found.how
+        assert prove_ros1("t", proc.pid, None).pid is None
+    finally:
+        net.close()
+        proc.wait(5)
 
 
 def test_a_node_watched_through_the_middleware_has_no_properties() -> None:
