@@ -2,7 +2,7 @@
 namespaces joined by a veth pair, ``base`` (the engine, the repairer, a listener) and
 ``second`` (a talker).  The talker's process is watched by the observer host of its
 machine, its crash is diagnosed, and it is restarted there by that machine's racc agent
-from the robot's launch XML file.
+from the robot's launch XML file; when the second host goes, the engine reports it lost.
 
 Needs root for ``ip netns`` (CI is root).  DDS discovers by multicast over the pair only
 (the namespaces see nothing else); both are deleted at the end, with what runs in them.
@@ -162,7 +162,7 @@ def test_a_node_on_a_second_host_is_observed_and_repaired_there(
             "observe_second.log",
         )
         start("a", [*RACC, "observe", observers, "--machine", "base", *ros2], "obs_base.log")
-        start("a", [*RACC, "engine", str(build / "model.yaml"), *ros2], "engine.log")
+        engine = start("a", [*RACC, "engine", str(build / "model.yaml"), *ros2], "engine.log")
         repairer = start(
             "a",
             [
@@ -220,6 +220,13 @@ def test_a_node_on_a_second_host_is_observed_and_repaired_there(
             f"{named - crash:.2f} s, running again {back - crash:.2f} s after the kill"
         )
         assert down - crash <= 3.0 and named - crash <= 5.0
+
+        # The second host goes: its atoms become unknown, and its loss is reported.
+        gone = time.time()
+        os.kill(second.proc.pid, signal.SIGKILL)
+        lost = engine.wait_line("observer host racc_observer_second lost", 15, gone)
+        assert lost is not None, engine.text()
+        print(f"second host lost (ROS 2): reported {lost - gone:.2f} s after it was killed")
     finally:
         for w in reversed(watchers):
             stop(w.proc)
