@@ -123,11 +123,19 @@ class ObserverHost:
             verdicts = sorted(self.current.values(), key=lambda v: v.atom)
             extra = dict(self.extra)
             gone = sorted(self.withdrawn.items())
-        rows = [literal_row(v, self.owner.get(v.atom, ""), extra.get(v.atom, ())) for v in verdicts]
-        rows.extend(unknown_row(a, self.owner.get(a, ""), t) for a, t in gone)
+        keyed = [
+            (v.atom, literal_row(v, self.owner.get(v.atom, ""), extra.get(v.atom, ())))
+            for v in verdicts
+        ]
+        keyed.extend((a, unknown_row(a, self.owner.get(a, ""), t)) for a, t in gone)
+        rows = (
+            [row for _, row in sorted(keyed, key=lambda p: p[0])]
+            if gone
+            else [row for _, row in keyed]
+        )
         if self.source:
             rows = [replace(r, values=(*r.values, ("host", self.source))) for r in rows]
-        return tuple(sorted(rows, key=lambda r: r.name))
+        return tuple(rows)
 
     def all_ok(self) -> bool:
         """Every atom reported, and positively."""
