@@ -29,10 +29,13 @@ from lark import Token
 
 from rac.errors import Span
 from rac.ir import (
+    CONTAINER_RUNTIMES,
+    Container,
     FieldRef,
     Hardware,
     Interval,
     Limits,
+    Machine,
     Model,
     Name,
     Node,
@@ -60,6 +63,7 @@ _MSG_TYPE = _compile(r"[A-Za-z_][A-Za-z0-9_]*(\/[A-Za-z_][A-Za-z0-9_]*)+")
 _FIELD = _compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*")
 _NUMBER = _compile(r"[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?")
 _INT = _compile(r"\d+")
+_ADDRESS = _compile(r"[A-Za-z0-9][A-Za-z0-9.:\-]*")
 _WS = _compile(r"[ \t\f\r\n]*")
 _COMMENT = _compile(r"#[^\n]*")
 # Comma-separated runs of names or fields on one line (atomic groups: each item matches
@@ -388,6 +392,7 @@ class _Reader:
         nodes: list[Node] = []
         related: list[Related] = []
         intervals: list[Interval] = []
+        machines: list[Machine] = []
         text = self.text
         size = len(text)
         # The last declaration when a one-line pattern read it: its list, the token-by-token
@@ -434,6 +439,8 @@ class _Reader:
                 related.append(self.relate())
             elif word == "interval":
                 intervals.append(self.interval())
+            elif word == "machine":
+                machines.append(self.machine())
             elif undo is not None:
                 # The last line read in one go goes on here: read it again token by token.
                 items, read, self.pos, self.line, self.line_start, ncomments = undo
@@ -449,6 +456,7 @@ class _Reader:
             nodes=tuple(nodes),
             related=tuple(related),
             intervals=tuple(intervals),
+            machines=tuple(machines),
             path=self.path,
         )
         return model, self.comments
@@ -668,6 +676,47 @@ class _Reader:
         )
 
     # token by token ------------------------------------------------------------
+    def machine(self) -> Machine:
+        start = self.keyword("machine")
+        self.skip()
+        name = self.name()
+        self.skip()
+        address: str | None = None
+        if self.peek_word() == "address":
+            self.keyword("address")
+            self.skip()
+            address = self.regex(_ADDRESS)
+            self.skip()
+        if self.peek_char() == ";":
+            self.char(";")
+        return Machine(name, address=address, span=self.span_from(start))
+
+    def placement(self) -> tuple[Name | None, Container | None]:
+        """``on MACHINE`` and ``in container NAME via RUNTIME`` after a node's name."""
+        machine: Name | None = None
+        container: Container | None = None
+        if self.peek_word() == "on":
+            self.keyword("on")
+            self.skip()
+            machine = self.name()
+            self.skip()
+        if self.peek_word() == "in":
+            self.keyword("in")
+            self.skip()
+            self.keyword("container")
+            self.skip()
+            cname = self.name()
+            self.skip()
+            self.keyword("via")
+            self.skip()
+            runtime = self.peek_word()
+            if runtime not in CONTAINER_RUNTIMES:
+                raise Bail
+            self.keyword(runtime)
+            self.skip()
+            container = Container(cname, runtime)
+        return machine, container
+
     def hardware(self) -> Hardware:
         start = self.keyword("hardware")
         self.skip()
@@ -811,6 +860,8 @@ class _Reader:
 
     def node(self) -> Node:
         drives: tuple[Name, ...] = ()
+        machine: Name | None = None
+        container: Container | None = None
         if (m := _NODE_HEAD.match(self.text, self.pos)) is not None:
             # 'node NAME drives A, B {' on one line, read with one regex match.
             line, base = self.line, self.line_start - 1
@@ -832,6 +883,8 @@ class _Reader:
                 self.keyword("drives")
                 self.skip()
                 drives = self.name_list()
+                self.skip()
+            machine, container = self.placement()
         subscribes: list[Name] = []
         publishes: list[Publication] = []
         diagnostics: list[Name] = []
@@ -962,6 +1015,8 @@ class _Reader:
             publishes=tuple(publishes),
             limits=limits,
             diagnostics=tuple(diagnostics),
+            machine=machine,
+            container=container,
             span=self.span_from(start),
         )
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from rac.ir import Hardware, Interval, Limits, Model, Node, Related, Topic
+from rac.ir import Hardware, Interval, Limits, Machine, Model, Node, Related, Topic
 
 INDENT = "  "
 _MEM_UNITS = (("GB", 1000**3), ("MB", 1000**2), ("kB", 1000))
@@ -40,6 +40,13 @@ def format_limits(limits: Limits) -> str:
 
 def _comments(comments: Iterable[str], indent: str = "") -> list[str]:
     return [f"{indent}#{c}" if c.startswith(" ") or not c else f"{indent}# {c}" for c in comments]
+
+
+def _machine(m: Machine) -> list[str]:
+    line = f"machine {m.name.value}"
+    if m.address is not None:
+        line += f" address {m.address}"
+    return [line]
 
 
 def _hardware(h: Hardware) -> list[str]:
@@ -90,6 +97,10 @@ def _node(n: Node) -> list[str]:
     head = f"node {n.name.value}"
     if n.drives:
         head += " drives " + ", ".join(h.value for h in n.drives)
+    if n.machine is not None:
+        head += f" on {n.machine.value}"
+    if n.container is not None:
+        head += f" in container {n.container.name.value} via {n.container.runtime}"
     notes: dict[str, list[str]] = {}
     for anchor, text in n.body_comments:
         notes.setdefault(anchor, []).append(text)
@@ -140,6 +151,7 @@ def format_model(model: Model) -> str:
     """The canonical ``.ram`` text: sections in a fixed order, declarations as written."""
     out = [*_comments(model.comments), f"robot {model.name.value}"]
     sections: list[list[tuple[tuple[str, ...], list[str]]]] = [
+        [(m.comments, _machine(m)) for m in model.machines],
         [(h.comments, _hardware(h)) for h in model.hardware],
         [(t.comments, _topic(t)) for t in model.topics],
         [(n.comments, _node(n)) for n in model.nodes],

@@ -16,10 +16,13 @@ from typing import Any
 
 from rac.errors import Diagnostic, RacError, Span, did_you_mean
 from rac.ir import (
+    CONTAINER_RUNTIMES,
+    Container,
     FieldRef,
     Hardware,
     Interval,
     Limits,
+    Machine,
     Model,
     Name,
     Node,
@@ -40,13 +43,21 @@ FORMAT = "ram/1"
 
 _KEYS: dict[str, tuple[set[str], set[str]]] = {
     # object kind: (required keys, optional keys)
-    "model": ({"format", "name"}, {"hardware", "topics", "nodes", "related", "intervals"}),
+    "model": (
+        {"format", "name"},
+        {"machines", "hardware", "topics", "nodes", "related", "intervals"},
+    ),
+    "machine": ({"name"}, {"address"}),
+    "container": ({"name", "runtime"}, set()),
     "hardware": ({"name"}, {"switchable", "channel"}),
     "topic": (
         {"name"},
         {"type", "fields", "rate_hz", "rate_tolerance_hz", "window_s", "mismatch_threshold"},
     ),
-    "node": ({"name"}, {"drives", "subscribes", "publishes", "limits", "diagnostics"}),
+    "node": (
+        {"name"},
+        {"drives", "subscribes", "publishes", "limits", "diagnostics", "machine", "container"},
+    ),
     "publication": ({"topic"}, {"affected_by"}),
     "limits": (set(), {"cpu", "mem"}),
     "interval": ({"a", "b", "max_diff"}, set()),
@@ -54,10 +65,15 @@ _KEYS: dict[str, tuple[set[str], set[str]]] = {
 
 
 def model_to_json(model: Model) -> dict[str, Any]:
-    """The ``ram/1`` document of a model; optional keys are left out when empty."""
+    """The ``ram/1`` document of a model; optional keys are left out when empty (a model
+    without machines is written as before they existed)."""
+    machines: dict[str, Any] = {}
+    if model.machines:
+        machines["machines"] = [_machine(m) for m in model.machines]
     return {
         "format": FORMAT,
         "name": model.name.value,
+        **machines,
         "hardware": [_hardware(h) for h in model.hardware],
         "topics": [_topic(t) for t in model.topics],
         "nodes": [_node(n) for n in model.nodes],
@@ -70,6 +86,13 @@ def model_to_json(model: Model) -> dict[str, Any]:
 
 def dumps(model: Model) -> str:
     return json.dumps(model_to_json(model), indent=2, ensure_ascii=False) + "\n"
+
+
+def _machine(m: Machine) -> dict[str, Any]:
+    out: dict[str, Any] = {"name": m.name.value}
+    if m.address is not None:
+        out["address"] = m.address
+    return out
 
 
 def _hardware(h: Hardware) -> dict[str, Any]:
@@ -108,6 +131,10 @@ def _node(n: Node) -> dict[str, Any]:
     if limits:
         out["limits"] = limits
     out["diagnostics"] = [d.value for d in n.diagnostics]
+    if n.machine is not None:
+        out["machine"] = n.machine.value
+    if n.container is not None:
+        out["container"] = {"name": n.container.name.value, "runtime": n.container.runtime}
     return out
 
 
@@ -245,8 +272,31 @@ class _Reader:
             intervals=tuple(
                 self.interval(v, ("intervals", i)) for i, v in enumerate(lists["intervals"])
             ),
+            machines=tuple(
+                self.machine(m, ("machines", i)) for i, m in enumerate(lists["machines"])
+            ),
             path=self.path,
         )
+
+    def machine(self, value: Any, where: JsonPath) -> Machine:
+        m = self.obj(value, "machine", where)
+        address = m.get("address")
+        if address is not None:
+            address = self.typed(address, str, "a string", (*where, "address"))
+        return Machine(
+            self.name(m.get("name", ""), (*where, "name")),
+            address=address or None,
+            span=self.at(where),
+        )
+
+    def container(self, value: Any, where: JsonPath) -> Container | None:
+        if value is None:
+            return None
+        c = self.obj(value, "container", where)
+        runtime = self.typed(c.get("runtime", ""), str, "a string", (*where, "runtime"))
+        if runtime is not None and runtime not in CONTAINER_RUNTIMES:
+            self.fail((*where, "runtime"), f"expected docker or podman, got {runtime!r}")
+        return Container(self.name(c.get("name", ""), (*where, "name")), runtime or "")
 
     def hardware(self, value: Any, where: JsonPath) -> Hardware:
         h = self.obj(value, "hardware", where)
@@ -297,6 +347,12 @@ class _Reader:
                 span=self.at((*where, "limits")),
             ),
             diagnostics=self.names(n.get("diagnostics"), (*where, "diagnostics")),
+            machine=(
+                self.name(n["machine"], (*where, "machine"))
+                if n.get("machine") is not None
+                else None
+            ),
+            container=self.container(n.get("container"), (*where, "container")),
             span=self.at(where),
         )
 

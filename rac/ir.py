@@ -77,6 +77,29 @@ class Limits:
 
 
 @dataclass(frozen=True, slots=True)
+class Machine:
+    """A computer of the robot (``machine NAME [address ADDR]``): where nodes run, where
+    an observer host watches their processes and where they are restarted."""
+
+    name: Name
+    address: str | None = None  # host name or IP address, as roslaunch's <machine> takes it
+    comments: tuple[str, ...] = dataclasses.field(default=(), compare=False)
+    span: Span | None = dataclasses.field(default=None, compare=False)
+
+
+CONTAINER_RUNTIMES = ("docker", "podman")
+
+
+@dataclass(frozen=True, slots=True)
+class Container:
+    """``in container NAME via docker|podman``: the node runs in that container, which is
+    restarted to restart the node."""
+
+    name: Name
+    runtime: str  # one of CONTAINER_RUNTIMES
+
+
+@dataclass(frozen=True, slots=True)
 class Node:
     name: Name
     drives: tuple[Name, ...] = ()
@@ -84,6 +107,8 @@ class Node:
     publishes: tuple[Publication, ...] = ()
     limits: Limits = Limits()
     diagnostics: tuple[Name, ...] = ()
+    machine: Name | None = None  # ``on MACHINE``; None: the robot's first machine, or this one
+    container: Container | None = None
     comments: tuple[str, ...] = dataclasses.field(default=(), compare=False)
     inner_comments: tuple[str, ...] = dataclasses.field(default=(), compare=False)
     # Comments inside the body, each with the statement it stands above: "subscribes",
@@ -158,6 +183,7 @@ class Model:
     nodes: tuple[Node, ...] = ()
     related: tuple[Related, ...] = ()
     intervals: tuple[Interval, ...] = ()
+    machines: tuple[Machine, ...] = ()
     comments: tuple[str, ...] = dataclasses.field(
         default=(), compare=False
     )  # before the `robot` header
@@ -180,6 +206,13 @@ class Model:
 
     def node_by_name(self) -> Mapping[str, Node]:
         return self._by_name("nodes", self.nodes)
+
+    def machine_of(self, node: Node) -> str | None:
+        """The machine a node runs on: its ``on``, else the first machine declared (None:
+        the robot declares no machine, everything runs on one computer)."""
+        if node.machine is not None:
+            return node.machine.value
+        return self.machines[0].name.value if self.machines else None
 
     def _by_name(self, kind: str, items: tuple[_Named, ...]) -> Mapping[str, Any]:
         """Declarations by name (the last of a duplicated name), built once per model: the

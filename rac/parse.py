@@ -26,10 +26,12 @@ from lark.tree import Meta
 from rac.errors import Diagnostic, RacError, Span, did_you_mean
 from rac.fastparse import MEM_UNITS, Bail, fast_parse
 from rac.ir import (
+    Container,
     FieldRef,
     Hardware,
     Interval,
     Limits,
+    Machine,
     Model,
     Name,
     Node,
@@ -343,7 +345,17 @@ class _Lower(Transformer[Token, Any]):
             nodes=tuple(d for d in decls if isinstance(d, Node)),
             related=tuple(d for d in decls if isinstance(d, Related)),
             intervals=tuple(d for d in decls if isinstance(d, Interval)),
+            machines=tuple(d for d in decls if isinstance(d, Machine)),
             path=self.path,
+        )
+
+    # machines ------------------------------------------------------------
+    def machine(self, meta: Meta, children: list[Any]) -> Machine:
+        name, address = children
+        return Machine(
+            self._name(name),
+            address=str(address) if address is not None else None,
+            span=_span(self.path, meta),
         )
 
     def header(self, meta: Meta, children: list[Token]) -> Name:
@@ -404,7 +416,7 @@ class _Lower(Transformer[Token, Any]):
 
     # nodes ---------------------------------------------------------------
     def node(self, meta: Meta, children: list[Any]) -> Node:
-        name, drives, body = children
+        name, drives, machine, container, body = children
         stmts: list[tuple[str, Any]] = list(body or ())
         subscribes = tuple(n for kind, v in stmts if kind == "subscribes" for n in v)
         publishes = tuple(p for kind, v in stmts if kind == "publishes" for p in v)
@@ -424,8 +436,17 @@ class _Lower(Transformer[Token, Any]):
             publishes=publishes,
             limits=limits,
             diagnostics=diagnostics,
+            machine=machine,
+            container=container,
             span=_span(self.path, meta),
         )
+
+    def on_machine(self, meta: Meta, children: list[Token]) -> Name:
+        return self._name(children[0])
+
+    def container(self, meta: Meta, children: list[Token]) -> Container:
+        name, runtime = children
+        return Container(self._name(name), str(runtime))
 
     def drives(self, meta: Meta, children: list[tuple[Name, ...]]) -> tuple[Name, ...]:
         return children[0]
@@ -488,7 +509,14 @@ def _attach_comments(model: Model, comments: list[Token]) -> Model:
     if not comments:
         return model
     decls: list[Any] = sorted(
-        [*model.hardware, *model.topics, *model.nodes, *model.related, *model.intervals],
+        [
+            *model.machines,
+            *model.hardware,
+            *model.topics,
+            *model.nodes,
+            *model.related,
+            *model.intervals,
+        ],
         key=lambda d: (d.span.line, d.span.column),
     )
     header_line = model.name.span.line if model.name.span else 1
@@ -530,6 +558,7 @@ def _attach_comments(model: Model, comments: list[Token]) -> Model:
         nodes=swap(model.nodes),
         related=swap(model.related),
         intervals=swap(model.intervals),
+        machines=swap(model.machines),
         comments=tuple(head),
         trailing_comments=tuple(tail),
     )

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from rac.errors import Diagnostic, RacError
 from rac.ir import Model
 from rac.logic import Atom, Clause, mangle
+from rac.passes.machines import place_observers
 from rac.passes.observers import ObserverSpec, derive_observers, observable_atoms
 from rac.passes.rbm import components, derive_rbm
 from rac.passes.validate import validate
@@ -101,7 +102,7 @@ def compile_model(model: Model) -> Compiled:
     with paused_gc():  # see rac.perf: half the time of a large model otherwise
         warnings = check_model(model)
         rbm = derive_rbm(model)
-        observers = derive_observers(model)
+        observers = place_observers(model, derive_observers(model))
         compiled = Compiled(
             model=model,
             rbm=rbm,

@@ -12,10 +12,13 @@ from __future__ import annotations
 from hypothesis import strategies as st
 
 from rac.ir import (
+    CONTAINER_RUNTIMES,
+    Container,
     FieldRef,
     Hardware,
     Interval,
     Limits,
+    Machine,
     Model,
     Name,
     Node,
@@ -105,6 +108,13 @@ def models(
         for ns in [draw(st.one_of(st.none(), st.none(), _WORD))]
     ]
     devices = [*hw_names, *_unique_names("dev", draw(st.integers(0, 2)), draw)]
+    # Where nodes run (issue 28): a few machines, an address or not; some nodes placed on
+    # one, some in a container.
+    machine_names = _unique_names("m", draw(st.integers(0, 2)), draw)
+    machines = tuple(
+        Machine(Name(m), address=draw(st.sampled_from([None, "10.0.0.2", "base.local", "fe80::1"])))
+        for m in machine_names
+    )
     nodes = []
     for name in node_names:
         subscribes = _subset(draw, topic_names)
@@ -126,6 +136,18 @@ def models(
                 publishes=tuple(publishes),
                 limits=Limits(cpu=cpu, mem=mem),
                 diagnostics=tuple(Name(d) for d in _subset(draw, devices, max_size=2)),
+                machine=(
+                    Name(draw(st.sampled_from(machine_names)))
+                    if machine_names and draw(st.booleans())
+                    else None
+                ),
+                container=(
+                    Container(
+                        Name(f"c_{draw(_SUFFIX)}x"), draw(st.sampled_from(CONTAINER_RUNTIMES))
+                    )
+                    if draw(st.integers(0, 3)) == 0
+                    else None
+                ),
             )
         )
 
@@ -158,6 +180,7 @@ def models(
         nodes=tuple(nodes),
         related=tuple(related),
         intervals=tuple(intervals),
+        machines=machines,
     )
 
 

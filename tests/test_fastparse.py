@@ -195,3 +195,54 @@ def test_integral_mutants() -> None:
                 mutant = mutant[:pos] + mutant[pos + rng.randint(1, 4) :]
         read += _same_or_bail(mutant)
     assert read > 20
+
+
+# Machines and where nodes run: one line, spread over lines, glued, with comments, and the
+# near misses Lark rejects (which the fast path must leave to it).
+PLACEMENTS = [
+    "machine base address 10.0.0.1\nmachine laptop address laptop.local;\nmachine c\n"
+    "node a on laptop { publishes /t }\nnode b drives h on base in container b_1 via docker\n"
+    "node c in container c via podman {}\n",
+    "machine base\n  address\n  fe80::1 ;node a\n on # c\n base\n in container x via podman\n{}\n",
+    "machine m address 10.0.0.1\nnode a drives h, g on m {\n  publishes /t\n}\n",
+    "node a on on\n",  # a machine named 'on'
+    "node a in container in via docker\n",
+    "machine m address\n",
+    "node a on\n",
+    "node a in container x via lxc\n",
+    "node a in x via docker\n",
+    "node a on m on m\n",
+    "node a in container x via docker on m\n",
+    "machine m address 10.0.0.1x\n",
+    "machine m address10.0.0.1\n",
+    "node a onm\n",
+]
+
+
+@pytest.mark.parametrize("text", PLACEMENTS)
+def test_placements(text: str) -> None:
+    _same_or_bail("robot r\ntopic /t\nhardware h\nhardware g\n" + text)
+
+
+@needs_atomic
+def test_placements_take_the_fast_path() -> None:
+    read = [_same_or_bail("robot r\n" + text) for text in PLACEMENTS[:3]]
+    assert all(read), read
+
+
+@needs_atomic
+def test_placement_mutants() -> None:
+    text = "robot r\ntopic /t\n" + "".join(PLACEMENTS[:3])
+    rng = random.Random(28)
+    pieces = [*PIECES, "on", "in", "container", "via", "docker", "machine", "address", "10.0"]
+    read = 0
+    for _ in range(600):
+        mutant = text
+        for _ in range(rng.randint(1, 3)):
+            pos = rng.randrange(len(mutant) + 1)
+            if rng.random() < 0.5:
+                mutant = mutant[:pos] + rng.choice(pieces) + mutant[pos:]
+            else:
+                mutant = mutant[:pos] + mutant[pos + rng.randint(1, 4) :]
+        read += _same_or_bail(mutant)
+    assert read > 20

@@ -42,11 +42,15 @@ def compile_text(text: str) -> dict[str, str]:
     return files
 
 
-def check_runtime_launch(text: str, switchable: bool, kind_attr: str = "type") -> None:
-    """racc's runtime: observer host, engine, repairer, and the board client with hardware."""
+def check_runtime_launch(
+    text: str, switchable: bool, kind_attr: str = "type", hosts: int = 1
+) -> None:
+    """racc's runtime: observer hosts (one per machine), engine, repairer, and the board
+    client with hardware."""
     root = etree.fromstring(text.encode("utf-8"))
     types = sorted(n.get(kind_attr) for n in root.findall("node"))
-    expected = ["engine", "observe", "repairer"] + (["board_client"] if switchable else [])
+    expected = ["engine", *["observe"] * hosts, "repairer"]
+    expected += ["board_client"] if switchable else []
     assert types == sorted(expected)
     assert all(n.get("pkg") == "racc" for n in root.findall("node"))
 
@@ -115,7 +119,8 @@ def test_random_models_compile_and_every_output_parses(model: Model) -> None:
     assert set(reported) == set(diagnosis["props"])
 
     switchable = any(h.switchable for h in model.hardware)
-    check_runtime_launch(files["observers.launch"], switchable)
+    # ROS 1 starts one observer host per machine (roslaunch's <machine>); ROS 2 the first's.
+    check_runtime_launch(files["observers.launch"], switchable, hosts=max(1, len(model.machines)))
     check_runtime_launch(files["observers.launch.xml"], switchable, "exec")
     check_launch(files["stack.launch"], "type", observers)
     check_launch(files["stack.launch.xml"], "exec", observers)

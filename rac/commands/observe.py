@@ -6,8 +6,10 @@ import argparse
 from typing import Any
 
 from rac.commands.common import add_command, add_ros_option, ros_version
+from rac.errors import Diagnostic, RacError
 from rac.loader import load_observers
 from rac.observe import ObserverBank
+from rac.passes.machines import machines_of, on_machine
 
 
 def register(sub: Any) -> None:
@@ -33,6 +35,19 @@ def register(sub: Any) -> None:
         default=10.0,
         help="node and property samples per second (default: 10)",
     )
+    parser.add_argument(
+        "--machine",
+        metavar="NAME",
+        help="the robot's machine this host runs on: only its observers (observers.yaml's "
+        "'machine'), as node racc_observer_NAME, and the racc agent that restarts its nodes "
+        "(default: every observer, one host for the whole robot)",
+    )
+    parser.add_argument(
+        "--launch",
+        metavar="FILE",
+        help="with --machine: the launch file the agent restarts this machine's nodes from "
+        "(default: none; nodes in containers are restarted by their container)",
+    )
     add_ros_option(parser)
     parser.set_defaults(run=run)
 
@@ -40,9 +55,25 @@ def register(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     _, specs = load_observers(args.observers)
     ObserverBank(specs)  # RAC050/RAC051 before any ROS work
+    machine = args.machine or None
+    if machine is not None and machine not in machines_of(specs):
+        known = ", ".join(machines_of(specs)) or "none"
+        raise RacError(
+            [
+                Diagnostic(
+                    "RAC140",
+                    f"{args.observers}: no observer runs on machine '{machine}' (machines: "
+                    f"{known})",
+                    hint="give a machine the model declares ('machine NAME'), or leave "
+                    "--machine out",
+                )
+            ]
+        )
+    specs = on_machine(specs, machine)
+    name = f"racc_observer_{machine}" if machine else "racc_observer"
     if ros_version(args) == 2:
         from rac.ros2.observe import run_observe
     else:
         from rac.ros1.observe import run_observe
-    run_observe(specs, sample_hz=args.rate)
+    run_observe(specs, sample_hz=args.rate, name=name, machine=machine, launch=args.launch or None)
     return 0

@@ -12,6 +12,7 @@ from rac.errors import Diagnostic, RacError
 from rac.loader import load_observers
 from rac.logic import mangle
 from rac.observe.hobs import parse_channels
+from rac.passes.machines import machines_of, node_placements
 from rac.repair import robot_name
 from rac.runtime.nodes import RepairJob
 from rac.runtime.repairer import Mode, Settings
@@ -132,6 +133,14 @@ def register(sub: Any) -> None:
         default="minimal",
         help="which diagnosis to repair, as in racc repair (default: minimal)",
     )
+    parser.add_argument(
+        "--machine",
+        metavar="NAME",
+        help="the machine this repairer runs on: nodes of other machines are restarted by "
+        "their machine's racc agent (default: the machine of the robot-wide observers in "
+        "observers.yaml, else the first named there; the compiled launch file gives the "
+        "model's first machine)",
+    )
     add_ros_option(parser)
     parser.set_defaults(run=run)
 
@@ -190,6 +199,17 @@ def settings_from(args: argparse.Namespace) -> Settings:
     )
 
 
+def where(
+    observers: str | None,
+) -> tuple[dict[str, tuple[str | None, str | None]], tuple[str, ...]]:
+    """Each node's machine and container, and the machines, from observers.yaml."""
+    if observers is None or not Path(observers).is_file():
+        return {}, ()
+    _, specs = load_observers(observers)
+    placements = {n: p for n, p in node_placements(specs).items() if p != (None, None)}
+    return placements, machines_of(specs)
+
+
 def run(args: argparse.Namespace) -> int:
     settings = settings_from(args)
     theory = load_theory(args.model)
@@ -205,7 +225,17 @@ def run(args: argparse.Namespace) -> int:
     observers = args.observers or str(Path(args.model).parent / "observers.yaml")
     args.launch = args.launch or None  # the compiled launch file passes "--launch=" for none
     nodes, devices = names(observers)
-    job = RepairJob(theory, robot_name(theory, args.model), args.launch, nodes, devices, settings)
+    placements, machines = where(observers)
+    job = RepairJob(
+        theory,
+        robot_name(theory, args.model),
+        args.launch,
+        nodes,
+        devices,
+        settings,
+        placements=placements,
+        machine=args.machine or (machines[0] if machines else None),
+    )
     if ros == 2:
         from rac.ros2.repairer import run_repairer as run2
 

@@ -7,6 +7,7 @@ The shape (docs/learning.md shows how ``rosnode info`` / ``ros2 node info`` map 
         publications: [/pose]          # or: publishers
         subscriptions: [/cmd_vel]      # or: subscribers
         drives: [jaguar]               # optional: hardware the node drives
+        host: 10.0.0.2                 # optional: the computer it runs on (racc record)
     hardware:                          # optional
       jaguar: {switchable: true, channel: 1}
 
@@ -91,6 +92,7 @@ class GraphNode:
     publications: tuple[str, ...]
     subscriptions: tuple[str, ...]
     drives: tuple[str, ...]
+    host: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -143,15 +145,25 @@ def parse_graph(text: str, path: str) -> Graph:
         body = body or {}
         if not isinstance(body, dict):
             raise _bad(path, f"node {name}: expected a mapping")
-        extra = set(body) - set(_NODE_KEYS)
+        extra = set(body) - set(_NODE_KEYS) - {"host"}
         if extra:
             raise _bad(path, f"node {name}: unknown keys {sorted(extra)}")
         lists: dict[str, tuple[str, ...]] = {"publications": (), "subscriptions": (), "drives": ()}
+        host = body.get("host")
+        if host is not None and not isinstance(host, str):
+            raise _bad(path, f"node {name}: host must be a host name or address")
         for key, value in body.items():
-            lists[_NODE_KEYS[key]] += _names(value, path, f"node {name}: {key}")
+            if key != "host":
+                lists[_NODE_KEYS[key]] += _names(value, path, f"node {name}: {key}")
         node_name = str(name).removeprefix("/")
         nodes.append(
-            GraphNode(node_name, lists["publications"], lists["subscriptions"], lists["drives"])
+            GraphNode(
+                node_name,
+                lists["publications"],
+                lists["subscriptions"],
+                lists["drives"],
+                host.strip() or None if host is not None else None,
+            )
         )
     hardware = []
     for name, body in (doc.get("hardware") or {}).items():

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from rac.ir import Hardware, Limits, Model, Name, Node, Publication, Related, Topic
+from rac.ir import Hardware, Limits, Machine, Model, Name, Node, Publication, Related, Topic
 from rac.learn import holdout
 from rac.learn.correlate import Correlation, correlations
 from rac.learn.fields import EULER_FIELDS
@@ -162,18 +162,45 @@ def _identifier(text: str) -> str:
 
 def _structure_from_graph(graph: Graph) -> tuple[list[Node], list[Hardware]]:
     nodes = []
+    placed = machines_from_graph(graph)[1]
     for g in sorted(graph.nodes, key=lambda n: n.name):
         subs = tuple(Name(t) for t in dict.fromkeys(g.subscriptions))
         pubs = tuple(
             Publication(Name(t), tuple(s for s in subs if s.value != t))
             for t in dict.fromkeys(g.publications)
         )
-        nodes.append(Node(Name(g.name), tuple(Name(h) for h in g.drives), subs, pubs))
+        where = Name(placed[g.name]) if g.name in placed else None
+        nodes.append(
+            Node(Name(g.name), tuple(Name(h) for h in g.drives), subs, pubs, machine=where)
+        )
     declared = {h.name for h in graph.hardware}
     hardware = [Hardware(Name(h.name), h.switchable, h.channel) for h in graph.hardware]
     for h in sorted({d for g in graph.nodes for d in g.drives} - declared):
         hardware.append(Hardware(Name(h)))
     return nodes, hardware
+
+
+def machines_from_graph(graph: Graph) -> tuple[tuple[Machine, ...], dict[str, str]]:
+    """The machines of a graph whose nodes run on more than one host, and each node's
+    machine (one host: nothing, the robot is one computer).  The host of most nodes comes
+    first (a node without ``on`` runs there); a machine is named after its host."""
+    hosts = [g.host for g in graph.nodes if g.host]
+    if len(set(hosts)) < 2:
+        return (), {}
+    counts: dict[str, int] = {}
+    for h in hosts:
+        counts[h] = counts.get(h, 0) + 1
+    ordered = sorted(counts, key=lambda h: (-counts[h], h))
+    names: dict[str, str] = {}
+    for host in ordered:
+        base = re.sub(r"[^A-Za-z0-9_]", "_", host).strip("_") or "machine"
+        base = base if base[0].isalpha() else f"host_{base}"
+        name, i = base, 2
+        while name in names.values():
+            name, i = f"{base}_{i}", i + 1
+        names[host] = name
+    machines = tuple(Machine(Name(names[h]), address=h) for h in ordered)
+    return machines, {g.name: names[g.host] for g in graph.nodes if g.host}
 
 
 def _structure_from_recording(recording: Recording) -> list[Node]:
@@ -598,6 +625,13 @@ def learn(
         nodes=tuple(nodes),
         related=tuple(related),
         intervals=base.intervals if base is not None else (),
+        machines=(
+            base.machines
+            if base is not None
+            else machines_from_graph(graph)[0]
+            if graph is not None
+            else ()
+        ),
         comments=(*header, *(base.comments if base is not None else ())),
         trailing_comments=tuple(trailing),
     )

@@ -26,6 +26,12 @@ class ObservationSet:
         self._polarity[atom] = positive  # replaces the opposite literal, if any
         return True
 
+    def discard(self, atom: Atom) -> bool:
+        """Θ without either literal of ``atom`` (its verdict is withdrawn: unknown)."""
+        if atom.predicate.startswith(NEG_PREFIX):
+            atom = Atom(atom.predicate.removeprefix(NEG_PREFIX), atom.args)
+        return self._polarity.pop(atom, None) is not None
+
     def literals(self) -> tuple[Literal, ...]:
         found = (Literal(atom, positive) for atom, positive in self._polarity.items())
         return tuple(sorted(found, key=str))

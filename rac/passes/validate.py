@@ -559,8 +559,41 @@ def check_loops(model: Model) -> Iterator[Diagnostic]:
             )
 
 
+# A machine names an observer host (racc_observer_NAME): one ROS name segment.  A
+# container's name is what docker and podman accept.
+_MACHINE_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
+_CONTAINER_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.\-]*")
+
+
+def check_machines(model: Model) -> Iterator[Diagnostic]:
+    """Machines declared once with valid names; every ``on`` names one; containers are
+    named as docker and podman name them."""
+    seen: dict[str, Name] = {}
+    for machine in model.machines:
+        name = machine.name
+        if not _MACHINE_NAME.fullmatch(name.value):
+            hint = "a machine name is letters, digits and '_', starting with a letter"
+            yield _error("RAC142", f"invalid machine name '{name.value}'", name.span, hint)
+        if name.value in seen:
+            yield _error("RAC141", f"machine '{name.value}' declared twice", name.span)
+        seen[name.value] = name
+    for node in model.nodes:
+        where = node.machine
+        if where is not None and where.value not in seen:
+            msg = f"node '{node.name.value}' runs on undeclared machine '{where.value}'"
+            hint = did_you_mean(where.value, seen) or "declare it: 'machine NAME address ADDR'"
+            yield _error("RAC140", msg, where.span, hint)
+        box = node.container
+        if box is not None and not _CONTAINER_NAME.fullmatch(box.name.value):
+            hint = "a container name is letters, digits, '_', '.' and '-', starting with one of"
+            hint += " the first two"
+            msg = f"invalid container name '{box.name.value}'"
+            yield _error("RAC142", msg, box.name.span, hint)
+
+
 RULES: tuple[Rule, ...] = (
     check_names,
+    check_machines,
     check_duplicates,
     check_references,
     check_duplicate_statements,

@@ -14,7 +14,7 @@ from typing import Any
 from urllib.parse import urlparse
 
 from rac.errors import Diagnostic, RacError
-from rac.runtime.procs import REMOTE
+from rac.runtime.placement import Found, prove_ros1
 from rac.runtime.status import Row, rows_from_array
 
 CALLER = "/racc"
@@ -89,8 +89,30 @@ def node_uri(node: str) -> str | None:
     return str(uri) if code == 1 else None
 
 
-def resolve_pid(node: str) -> int | None:
-    """The node's pid from its getPid (REMOTE for another machine); None: not reachable."""
+def node_hosts(nodes: Iterable[str]) -> dict[str, str]:
+    """The host of each node's XML-RPC URI, as the master has it (for ``racc record``'s
+    graph: where each node runs)."""
+    out = {}
+    for node in nodes:
+        try:
+            uri = node_uri(node)
+        except (OSError, xmlrpc.client.Error):
+            continue
+        host = urlparse(uri).hostname if uri else None
+        if host:
+            out[node] = host
+    return out
+
+
+def is_local_host(host: str) -> bool:
+    return host in LOCAL_HOSTS or host.startswith("127.")
+
+
+def resolve_pid(node: str) -> Found | None:
+    """The node as the master and its own XML-RPC server show it: None when it is not
+    there (unregistered, or its server does not answer getPid); else the pid it answered
+    when that process is proven to be the node's (:func:`rac.runtime.placement.prove_ros1`),
+    or no pid (another machine, another PID namespace: watched through the master)."""
     try:
         uri = node_uri(node)
         if uri is None:
@@ -100,8 +122,11 @@ def resolve_pid(node: str) -> int | None:
         return None
     if code != 1:
         return None
-    host = urlparse(uri).hostname or ""
-    return int(pid) if host in LOCAL_HOSTS or host.startswith("127.") else REMOTE
+    parsed = urlparse(uri)
+    host = parsed.hostname or ""
+    if not is_local_host(host):
+        return Found(None, f"its XML-RPC server is on {host}, another machine")
+    return prove_ros1(node, int(pid), parsed.port)
 
 
 def system_state() -> tuple[list[Any], list[Any], list[Any]]:

@@ -16,7 +16,9 @@ def run_demo_node(demo: DemoNode) -> None:
     import rospy.impl.masterslave as masterslave
     from diagnostic_msgs.msg import DiagnosticArray
 
-    body = start_body()
+    # The body's command line names the node: the pid getPid answers must be proven to be
+    # the node's (rac.runtime.placement) before racc watches it.
+    body = start_body([f"__name:={demo.name.strip('/').rpartition('/')[2]}"])
     masterslave.ROSHandler.getPid = lambda _self, _caller: (1, "", body.pid)
     rospy.init_node(demo.name)
     pubs = {

@@ -6,10 +6,13 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
+from rac.passes.machines import node_placements
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec
+from rac.ros1.agent import serve_agent
 from rac.ros1.common import connection_type, require_ros, resolve_pid, to_array
 from rac.runtime.host import HostLoop, ObserverHost, Schedule
 from rac.runtime.procs import ProcessProbe
+from rac.runtime.routing import Agent, agent_topic
 from rac.runtime.status import OBSERVATIONS, rows_from_array
 from rac.runtime.values import Readers
 
@@ -20,12 +23,16 @@ def run_observe(
     sample_hz: float = 10.0,
     republish_s: float = 1.0,
     name: str = "racc_observer",
+    machine: str | None = None,
+    launch: str | None = None,
 ) -> None:
     rospy = require_ros()
     from diagnostic_msgs.msg import DiagnosticArray
 
     rospy.init_node(name)
     host = ObserverHost(specs)
+    host.source = str(rospy.get_name()).lstrip("/")
+    agent = start_agent(rospy, specs, machine, launch)
     bank = host.bank
     pub = rospy.Publisher(OBSERVATIONS, DiagnosticArray, queue_size=10, latch=True)
     readers = Readers(bank.topic_fields())
@@ -52,12 +59,19 @@ def run_observe(
         )
     probe = ProcessProbe(bank.nodes, resolve_pid, bank.properties)
     rospy.loginfo(
-        "racc observe: %d observers, %d topics, %d nodes", len(specs), len(subs), len(probe.nodes)
+        "racc observe: %d observers, %d topics, %d nodes%s",
+        len(specs),
+        len(subs),
+        len(probe.nodes),
+        f" (machine {machine})" if machine else "",
     )
     period = 1.0 / sample_hz
     loop = HostLoop(host, probe, republish_s, Schedule(period_s=period))
     next_tick = time.time()
     while not rospy.is_shutdown():
+        if agent is not None:
+            for level, line in agent.step(host.clock()):
+                (rospy.logerr if level >= 2 else rospy.logwarn if level else rospy.loginfo)(line)
         step = loop.step(time.time())
         for line in step.lines:
             rospy.loginfo(line)
@@ -71,3 +85,24 @@ def run_observe(
             time.sleep(delay)
         else:
             next_tick = time.time()
+
+
+def start_agent(
+    rospy: Any, specs: Sequence[ObserverSpec], machine: str | None, launch: str | None
+) -> Agent | None:
+    """The racc agent of ``machine`` (rac.runtime.routing), restarting its nodes from
+    ``launch`` or by their container; None without a machine."""
+    if machine is None:
+        return None
+    from rac.ros1.repairer import Ros1Actuator
+
+    local = Ros1Actuator(rospy, launch) if launch else None
+    agent = Agent(machine, node_placements(specs), local)
+    serve_agent(rospy, agent)
+    rospy.loginfo(
+        "racc agent %s: restarts its nodes on %s (launch file %s)",
+        machine,
+        agent_topic(machine),
+        launch or "none",
+    )
+    return agent

@@ -11,7 +11,13 @@ from typing import Any
 from rosbags.rosbag1 import Writer
 
 from rac.learn.graph import Exclusions
-from rac.ros1.common import connection_type, require_ros, resolve_pid, system_state
+from rac.ros1.common import (
+    connection_type,
+    node_hosts,
+    require_ros,
+    resolve_pid,
+    system_state,
+)
 from rac.runtime.record import DEFAULT_EXCLUSIONS, PropertySampler, graph_yaml
 
 DISCOVER_S = 0.5
@@ -84,5 +90,8 @@ def run_record(
     with lock:
         writer.close()
     csv.write_text("\n".join(rows) + "\n", encoding="utf-8")
-    graph.write_text(graph_yaml(pubs, subs, [me], exclusions), encoding="utf-8")
+    names = {n for _, ns in [*pubs, *subs] for n in ns if exclusions.node(n)}
+    graph.write_text(
+        graph_yaml(pubs, subs, [me], exclusions, hosts=node_hosts(names)), encoding="utf-8"
+    )
     return count[0], len(conns)

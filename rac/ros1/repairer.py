@@ -27,6 +27,7 @@ from typing import Any
 from urllib.parse import urlparse
 
 from rac.errors import Diagnostic, RacError
+from rac.ros1.agent import routed_actuator
 from rac.ros1.common import (
     CALLER,
     LOCAL_HOSTS,
@@ -38,7 +39,7 @@ from rac.ros1.common import (
 )
 from rac.runtime.detached import Detached, kill_pids, listening_pid, started_note
 from rac.runtime.nodes import RepairJob, run_repair_node
-from rac.runtime.procs import REMOTE, terminate
+from rac.runtime.procs import terminate
 
 
 def load_launch_nodes(path: str) -> dict[str, Any]:
@@ -121,7 +122,10 @@ class Ros1Actuator:
         if pid is not None and self.detached.signal(node, signal.SIGINT):
             _later(2.0, lambda: self.detached.signal(node, signal.SIGTERM, only=pid))
             return f"SIGINT to pid {pid} (started by racc)"
-        pid = resolve_pid(node)
+        # Only a process proven to be the node's is signalled: the pid a node in a
+        # container answers is not one of this host (1 would be the init process).
+        found = resolve_pid(node)
+        pid = found.pid if found is not None else None
         said = "not reachable over XML-RPC"
         try:
             uri = node_uri(node)
@@ -130,7 +134,7 @@ class Ros1Actuator:
                 said = "asked over XML-RPC to shut down"
         except (OSError, xmlrpc.client.Error):
             pass
-        if pid is not None and pid != REMOTE:
+        if pid is not None:
             threading.Thread(
                 target=terminate, args=(pid, (None, signal.SIGTERM)), kwargs={"grace_s": 2.0}
             ).start()
@@ -144,6 +148,7 @@ class Ros1Actuator:
         if pid is not None and self.detached.signal(node, signal.SIGKILL):
             return f"SIGKILL to pid {pid} (started by racc)"
         found = resolve_pid(node)
+        pid = found.pid if found is not None else None
         if found is None:
             try:
                 uri = node_uri(node)
@@ -153,8 +158,8 @@ class Ros1Actuator:
             local = (parsed.hostname or "") in LOCAL_HOSTS or (parsed.hostname or "").startswith(
                 "127."
             )
-            found = listening_pid(parsed.port) if local and parsed.port else None
-        return kill_pids(node, [found] if found is not None and found != REMOTE else [])
+            pid = listening_pid(parsed.port) if local and parsed.port else None
+        return kill_pids(node, [pid] if pid is not None else [])
 
     def switch(self, device: str, on: bool) -> None:
         if self.switches.get_num_connections() == 0:
@@ -206,4 +211,5 @@ def run_repairer(job: RepairJob, name: str = "racc_repairer") -> None:
     bus = Ros1Bus(name)
     actuator = Ros1Actuator(bus.rospy, job.launch_file)
     # The nodes racc started are left running: they belong to the robot.
-    run_repair_node(bus, actuator, job, after_tick=actuator.reap, middleware=MasterWatch())
+    routed = routed_actuator(bus.rospy, job, actuator)
+    run_repair_node(bus, routed, job, after_tick=actuator.reap, middleware=MasterWatch())

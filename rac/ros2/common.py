@@ -15,7 +15,8 @@ from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
 from rac.errors import Diagnostic, RacError
-from rac.runtime.procs import REMOTE, innermost, node_processes, process_table
+from rac.runtime.placement import Found, prove_by_cmdline
+from rac.runtime.procs import innermost, node_processes, process_table
 from rac.runtime.status import Row, rows_from_array
 
 HINT = (
@@ -255,10 +256,12 @@ class PidResolver:
     """``resolve(node)`` for :class:`rac.runtime.procs.ProcessProbe` on ROS 2.
 
     A node's pid is that of the innermost local process whose command line says
-    ``__node:=NAME``.  A node the graph shows without such a process is on another
-    machine (REMOTE), unless it was seen here before: DDS keeps a crashed node in the
-    graph until its lease runs out (seconds), so a node whose local process has gone is
-    not running until a new process with its name appears.
+    ``__node:=NAME``, when it is of this PID namespace.  A node the graph shows without
+    such a process is on another machine, or in a container (its process is in another
+    PID namespace): it is watched through the graph alone, unless it was seen here
+    before: DDS keeps a crashed node in the graph until its lease runs out (seconds), so
+    a node whose local process has gone is not running until a new process with its
+    name appears.
     """
 
     def __init__(self, graph: Callable[[], set[str]], table_s: float = 0.25) -> None:
@@ -268,14 +271,17 @@ class PidResolver:
         self._table: list[Any] = []
         self._scanned = float("-inf")
 
-    def __call__(self, node: str) -> int | None:
+    def __call__(self, node: str) -> Found | None:
         now = time.monotonic()
         if now - self._scanned >= self.table_s:
             self._table, self._scanned = process_table(), now
         proc = innermost(node_processes(node, self._table))
-        if proc is not None:
+        found = prove_by_cmdline(int(proc.pid)) if proc is not None else None
+        if found is not None and found.pid is not None:
             self.local.add(node)
-            return int(proc.pid)
+            return found
         if node in self.local:
             return None
-        return REMOTE if node.strip("/") in self.graph() else None
+        if node.strip("/") not in self.graph():
+            return None
+        return found or Found(None, "in the graph without a process here: another machine")

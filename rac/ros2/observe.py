@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec
+from rac.ros2.agent import start_agent
 from rac.ros2.common import (
     PidResolver,
     Session,
@@ -39,12 +40,16 @@ def run_observe(
     sample_hz: float = 10.0,
     republish_s: float = 1.0,
     name: str = "racc_observer",
+    machine: str | None = None,
+    launch: str | None = None,
 ) -> None:
     session = Session(name)
     from diagnostic_msgs.msg import DiagnosticArray
 
     node = session.node
     host = ObserverHost(specs)
+    host.source = session.name
+    agent = start_agent(session, specs, machine, launch)
     bank = host.bank
     pub = node.create_publisher(DiagnosticArray, OBSERVATIONS, reliable(10, latched=True))
     readers = Readers(bank.topic_fields(), ros_version=2)
@@ -89,7 +94,8 @@ def run_observe(
     probe = ProcessProbe(bank.nodes, resolver, bank.properties, recheck_s=1.0)
     session.log(
         0,
-        f"racc observe: {len(specs)} observers, {len(wanted)} topics, {len(probe.nodes)} nodes",
+        f"racc observe: {len(specs)} observers, {len(wanted)} topics, {len(probe.nodes)} nodes"
+        + (f" (machine {machine})" if machine else ""),
     )
     period = 1.0 / sample_hz
     loop = HostLoop(host, probe, republish_s, Schedule(period_s=period))
@@ -100,6 +106,9 @@ def run_observe(
             if now >= next_discover and len(subs) < len(wanted):
                 discover()
                 next_discover = now + DISCOVER_S
+            if agent is not None:
+                for level, line in agent.step(host.clock()):
+                    session.log(level, line)
             step = loop.step(now)
             for line in step.lines:
                 session.log(0, line)

@@ -22,6 +22,7 @@ import signal
 import threading
 
 from rac.errors import Diagnostic, RacError
+from rac.ros2.agent import routed_actuator
 from rac.ros2.common import Session, reliable
 from rac.ros2.launch import LaunchNode, command_line, load_launch
 from rac.runtime.detached import Detached, kill_pids, started_note
@@ -110,6 +111,7 @@ def run_repairer(job: RepairJob, restart: str | None = None, name: str = "racc_r
     session = Session(name)
     actuator = Ros2Actuator(session, job.launch_file, restart)
     try:  # the nodes racc started are left running: they belong to the robot
-        run_repair_node(session, actuator, job, after_tick=actuator.reap)
+        routed = routed_actuator(session, job, actuator)
+        run_repair_node(session, routed, job, after_tick=actuator.reap)
     finally:
         session.close()

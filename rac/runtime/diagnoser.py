@@ -13,14 +13,25 @@ from __future__ import annotations
 import os
 import threading
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from rac.diagnosis import DiagnosisResult, Theory, diagnose
 from rac.diagnosis.theory import known_atoms
 from rac.errors import RacError
 from rac.logic import NEG_PREFIX, Atom
 from rac.observe import ObservationSet, Verdict
-from rac.runtime.status import ERROR, OK, Row, diagnosis_rows, row_verdict, summary_row
+from rac.runtime.hosts import HOST_LOST_S, HostWatch, lost_line
+from rac.runtime.status import (
+    ERROR,
+    OK,
+    WARN,
+    Row,
+    diagnosis_rows,
+    row_atom,
+    row_unknown,
+    row_verdict,
+    summary_row,
+)
 
 MIN_GAP_S = 0.2  # between diagnoses triggered by changed observations
 
@@ -31,6 +42,7 @@ class Tick:
     rows: tuple[Row, ...]  # for /diagnosis
     summary: Row  # for /diagnostics
     changed: bool  # the diagnoses differ from the last tick's
+    hosts: tuple[Row, ...] = ()  # for /diagnostics: each observer host heard or lost
 
 
 class Diagnoser:
@@ -55,6 +67,12 @@ class Diagnoser:
             self.unknown.add(plain)
             return False
         changed = self.observations.add(verdict)
+        self._dirty |= changed
+        return changed
+
+    def forget(self, atom: Atom) -> bool:
+        """Θ without ``atom``'s literal (its observer withdrew it); True when Θ changed."""
+        changed = self.observations.discard(atom)
         self._dirty |= changed
         return changed
 
@@ -112,20 +130,46 @@ class EngineLoop:
         *,
         rate_hz: float = 1.0,
         max_card: int | None = None,
+        host_lost_s: float = HOST_LOST_S,
     ) -> None:
         self.load, self.log = load, log
         self.diagnoser = Diagnoser(load(path), robot, node, max_card)
         self.period = 1.0 / rate_hz
         self.path, self.stamp, self.request = path, _stamp(path), ""
+        self.hosts = HostWatch(host_lost_s)
         self._lock = threading.Lock()
         self._last = float("-inf")
 
     def observation_rows(self, rows: Iterable[Row], t: float) -> None:
         with self._lock:
+            rows = list(rows)
+            self._heard(rows, t)
             for row in rows:
+                withdrawn = row_unknown(row)
+                if withdrawn is not None:
+                    self.diagnoser.forget(withdrawn)
+                    continue
                 verdict = row_verdict(row, t)
                 if verdict is not None:
                     self.diagnoser.observe(verdict)
+
+    def _heard(self, rows: list[Row], t: float) -> None:
+        by_host: dict[str, list[Atom]] = {}
+        for row in rows:
+            host = row.value("host")
+            if host:
+                atom = row_unknown(row) or row_atom(row)
+                by_host.setdefault(host, []).extend([atom] if atom is not None else [])
+        for host, atoms in by_host.items():
+            if self.hosts.heard_from(host, atoms, t):
+                self.log(WARN, f"t={t:.3f} observer host {host} back")
+
+    def _lose_silent_hosts(self, now: float) -> None:
+        for host, atoms in self.hosts.newly_lost(now):
+            for atom in atoms:
+                self.diagnoser.forget(atom)
+            silent = now - self.hosts.heard[host]
+            self.log(ERROR, lost_line(now, host, atoms, silent))
 
     def request_reload(self, target: str) -> None:
         with self._lock:
@@ -144,7 +188,9 @@ class EngineLoop:
         elif _stamp(self.path) != self.stamp:
             self._reload(self.path, now)
         with self._lock:
+            self._lose_silent_hosts(now)
             tick = self.diagnoser.tick()
+            tick = replace(tick, hosts=self.hosts.rows(self.diagnoser.node, now))
         if tick.changed:
             self.log(OK, diagnosis_line(now, tick.result))
         return tick

@@ -25,14 +25,15 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from rac.logic import Atom
 from rac.observe import ChannelState, DeviceStatus, Event, Message, ObserverBank, Verdict
 from rac.observe.dobs import violations_first
 from rac.passes.observers import ObserverSpec
+from rac.runtime.placement import PlacementView
 from rac.runtime.procs import ProcessProbe
-from rac.runtime.status import Row, literal_row, row_channel
+from rac.runtime.status import Row, literal_row, row_channel, unknown_row
 
 
 class ObserverHost:
@@ -58,6 +59,11 @@ class ObserverHost:
         self._last_tick: float | None = None
         self._on_time_since: float | None = None
         self._starved_since = 0.0
+        self.extra: dict[Atom, tuple[tuple[str, str], ...]] = {}  # more values of a row
+        self.withdrawn: dict[Atom, float] = {}  # atoms made unknown, since when
+        # The host's node name, on every row (value "host"): the engine tells hosts apart
+        # by it and makes a silent host's atoms unknown (rac.runtime.hosts).
+        self.source = ""
         self._lock = threading.Lock()
         self._last_t = float("-inf")
 
@@ -155,7 +161,23 @@ class ObserverHost:
     def _keep(self, verdicts: list[Verdict]) -> None:
         for v in verdicts:
             self.current[v.atom] = v
+            self.withdrawn.pop(v.atom, None)
             self.changes.append(v)
+
+    def withdraw(self, atoms: Iterable[Atom]) -> list[Atom]:
+        """Make atoms unknown (their last verdict no longer holds); the ones that had one."""
+        out = []
+        with self._lock:
+            t = self._now()
+            for atom in atoms:
+                if self.current.pop(atom, None) is not None or atom not in self.withdrawn:
+                    self.withdrawn[atom] = t
+                    out.append(atom)
+        return out
+
+    def annotate(self, atom: Atom, values: tuple[tuple[str, str], ...]) -> None:
+        with self._lock:
+            self.extra[atom] = values
 
     def take_changes(self) -> list[Verdict]:
         with self._lock:
@@ -177,7 +199,24 @@ class ObserverHost:
         with self._lock:
             verdicts = sorted(self.current.values(), key=lambda v: v.atom)
             epoch = self.epoch
-        return tuple(literal_row(v, self.owner.get(v.atom, ""), v.t + epoch) for v in verdicts)
+            extra = dict(self.extra)
+            gone = sorted(self.withdrawn.items())
+        keyed = [
+            (
+                v.atom,
+                literal_row(v, self.owner.get(v.atom, ""), v.t + epoch, extra.get(v.atom, ())),
+            )
+            for v in verdicts
+        ]
+        keyed.extend((a, unknown_row(a, self.owner.get(a, ""), t + epoch)) for a, t in gone)
+        rows = (
+            [row for _, row in sorted(keyed, key=lambda p: p[0])]
+            if gone
+            else [row for _, row in keyed]
+        )
+        if self.source:
+            rows = [replace(r, values=(*r.values, ("host", self.source))) for r in rows]
+        return tuple(rows)
 
     def all_ok(self) -> bool:
         """Every atom reported, and positively."""
@@ -224,20 +263,37 @@ class HostLoop:
     ) -> None:
         self.host, self.probe, self.republish_s = host, probe, republish_s
         self.schedule = schedule or Schedule()
+        self.placement = PlacementView(host.specs)
         self._last_publish = float("-inf")
+
+    def _placements(self) -> list[str]:
+        """How each node whose placement changed is watched now: logged, on its
+        ``running`` row, and its unmeasurable properties withdrawn."""
+        host, view, out = self.host, self.placement, []
+        for node, found in self.probe.take_placements():
+            out.append(view.line(host.clock() + host.epoch, node, found))
+            running = view.running.get(node)
+            if running is not None:
+                host.annotate(running, view.values(node, found))
+            for atom in host.withdraw(view.withdrawn(node, found)):
+                wall = host.clock() + host.epoch
+                out.append(f"t={wall:.3f} observation unknown {atom} (no process)")
+        return out
 
     def step(self, now: float) -> HostStep:
         host = self.host
         host.tick(now, self.schedule)
         host.feed(self.probe.sample(host.clock()))
+        placed = self._placements()
         host.advance()
         changes = host.take_changes()
         lines = host.take_notes()
         epoch = host.epoch
+        lines += placed
         lines += [change_line(v, host.owner.get(v.atom, ""), epoch) for v in changes]
         warnings = tuple(f"an observer failed on {e}" for e in host.take_errors()[:5])
         rows = None
-        if changes or now - self._last_publish >= self.republish_s:
+        if changes or placed or now - self._last_publish >= self.republish_s:
             rows = host.rows()
             self._last_publish = now
         return HostStep(tuple(lines), warnings, rows)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import time
 from collections import deque
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Protocol
 
 from rac.diagnosis import Theory
@@ -86,7 +86,7 @@ def run_engine_node(
         tick = engine.step(time.time())
         if tick is not None:
             publish(tick.rows)
-            summary([tick.summary])
+            summary([tick.summary, *tick.hosts])
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -100,6 +100,10 @@ class RepairJob:
     devices: Mapping[str, str]  # component -> device name
     settings: Settings
     rate_hz: float = 10.0
+    # node -> (machine, container) from observers.yaml (rac.runtime.routing), and the
+    # machine the repairer runs on: nodes elsewhere are restarted by their machine's agent.
+    placements: Mapping[str, tuple[str | None, str | None]] = field(default_factory=dict)
+    machine: str | None = None
 
 
 def run_repair_node(

@@ -1,10 +1,13 @@
 """Node liveness and cpu/mem samples, from the operating system's process table.
 
 A transport gives a ``resolve(node)`` that asks its middleware for the node (ROS 1: the
-master's lookupNode, then the node's getPid) and returns its pid, -1 for a node that answers
-but runs on another machine, or None when the node is not there.  Once a local pid is known,
-liveness and properties come from psutil without asking the middleware again; a node whose
-process has gone is resolved afresh (a restarted node has a new pid).
+master's lookupNode, then the node's getPid) and returns a :class:`Found` (the node is
+there: a local process proven to be the node's, or no trusted process at all), or None when
+the node is not there (a bare pid, or REMOTE for another machine, are accepted too).  Once a
+proven pid is known, liveness and properties come from psutil without asking the middleware
+again; a node whose process has gone is resolved afresh (a restarted node has a new pid).
+A node without a proven process is asked for again every ``resolve_every_s`` and has no
+cpu or memory samples: its properties stay unknown (:mod:`rac.runtime.placement`).
 
 ROS 2 has no getPid: a node's process is found in the process table by the ``__node:=NAME``
 remapping on its command line (:func:`node_processes`), which ``ros2 launch``, ``ros2 run
@@ -21,15 +24,26 @@ from collections.abc import Callable, Iterable, Sequence
 import psutil
 
 from rac.observe import Event, NodeSample, PropertySample
+from rac.runtime.placement import Found
 
 REMOTE = -1
+Resolved = int | Found | None
+
+
+def as_found(resolved: Resolved) -> Found | None:
+    """A resolver's answer as a :class:`Found` (a bare pid is taken as proven)."""
+    if resolved is None or isinstance(resolved, Found):
+        return resolved
+    if resolved == REMOTE:
+        return Found(None, "on another machine")
+    return Found(resolved, f"pid {resolved}")
 
 
 class ProcessProbe:
     def __init__(
         self,
         nodes: Iterable[str],
-        resolve: Callable[[str], int | None],
+        resolve: Callable[[str], Resolved],
         properties: Iterable[tuple[str, str]] = (),
         resolve_every_s: float = 0.5,
         recheck_s: float | None = None,
@@ -45,6 +59,19 @@ class ProcessProbe:
         self._procs: dict[str, psutil.Process] = {}
         self._asked: dict[str, float] = {}  # when the middleware was last asked
         self._alive: dict[str, bool] = {}
+        self.placement: dict[str, Found] = {}  # how each node is watched, as last resolved
+        self._moved: list[tuple[str, Found]] = []  # placements changed since last taken
+
+    def _place(self, node: str, found: Found) -> None:
+        old = self.placement.get(node)
+        if old is None or old.watched != found.watched or old.how != found.how:
+            self.placement[node] = found
+            self._moved.append((node, found))
+
+    def take_placements(self) -> list[tuple[str, Found]]:
+        """Nodes whose way of being watched changed (for the log and ``/observations``)."""
+        out, self._moved = self._moved, []
+        return out
 
     def pid(self, node: str) -> int | None:
         proc = self._procs.get(node)
@@ -67,32 +94,38 @@ class ProcessProbe:
         if t - self._asked.get(node, float("-inf")) < self.resolve_every_s:
             return None
         self._asked[node] = t
-        pid = self.resolve(node)
-        if pid is None:
+        found = as_found(self.resolve(node))
+        if found is None:
             return False
-        if pid != REMOTE:
+        if found.pid is not None:
             try:
-                proc = psutil.Process(pid)
+                proc = psutil.Process(found.pid)
                 proc.cpu_percent(None)  # the first call only starts the measurement
                 self._procs[node] = proc
             except psutil.Error:
                 return False
+        self._place(node, found)
         return True
 
-    def _recheck(self, node: str, proc: psutil.Process, t: float) -> psutil.Process:
+    def _recheck(self, node: str, proc: psutil.Process, t: float) -> psutil.Process | None:
         assert self.recheck_s is not None
         if t - self._asked.get(node, float("-inf")) < self.recheck_s:
             return proc
         self._asked[node] = t
-        pid = self.resolve(node)
-        if pid is None or pid == REMOTE or pid == proc.pid:
+        found = as_found(self.resolve(node))
+        if found is None or found.pid == proc.pid:
             return proc
+        if found.pid is None:  # the process is no longer proven to be the node's
+            del self._procs[node]
+            self._place(node, found)
+            return None
         try:
-            fresh = psutil.Process(pid)
+            fresh = psutil.Process(found.pid)
             fresh.cpu_percent(None)
         except psutil.Error:
             return proc
         self._procs[node] = fresh
+        self._place(node, found)
         return fresh
 
     def sample(self, t: float, with_properties: bool = True) -> list[Event]:
@@ -102,8 +135,9 @@ class ProcessProbe:
             proc = self._local(node)
             if proc is not None and self.recheck_s is not None:
                 proc = self._recheck(node, proc, t)
+            running: bool | None
             if proc is not None:
-                running: bool | None = True
+                running = True
             else:
                 running = self._ask(node, t)
                 if running is None:  # asked a moment ago: the answer stands until next time

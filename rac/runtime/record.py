@@ -3,12 +3,13 @@ properties CSV, in the shapes ``racc learn --graph`` and ``--properties`` read."
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 
 import psutil
 import yaml
 
 from rac.learn.graph import Exclusions
+from rac.runtime.procs import Resolved, as_found
 
 DEFAULT_EXCLUSIONS = Exclusions()
 
@@ -24,9 +25,12 @@ def graph_yaml(
     subscribers: Sequence[tuple[str, Sequence[str]]],
     ignore: Iterable[str] = (),
     exclusions: Exclusions = DEFAULT_EXCLUSIONS,
+    hosts: Mapping[str, str] | None = None,
 ) -> str:
-    """The master's getSystemState as the ``--graph`` YAML (nodes with their topics),
-    without what ``exclusions`` leaves out."""
+    """The master's getSystemState as the ``--graph`` YAML (nodes with their topics, and
+    the host each runs on when ``hosts`` knows it: ROS 1's lookupNode URIs), without what
+    ``exclusions`` leaves out."""
+    hosts = hosts or {}
     skip = {n.rstrip("/") for n in ignore}
     owners = {topic: names for topic, names in publishers}
     nodes: dict[str, dict[str, set[str]]] = {}
@@ -41,7 +45,10 @@ def graph_yaml(
                 entry[key].add(topic)
     data = {
         "nodes": {
-            name: {k: sorted(v) for k, v in sorted(entry.items())}
+            name: {
+                **{k: sorted(v) for k, v in sorted(entry.items())},
+                **({"host": hosts[name]} if name in hosts else {}),
+            }
             for name, entry in sorted(nodes.items())
         }
     }
@@ -57,10 +64,11 @@ def properties_rows(t: float, samples: Iterable[tuple[str, float, float]]) -> li
 
 class PropertySampler:
     """cpu and memory of the robot's nodes for the properties CSV.  ``resolve(node)``
-    gives a node's local pid (None or negative: not here); a process is asked for its cpu
-    from the second sample on (psutil measures between two calls)."""
+    gives the node's proven local process (:class:`rac.runtime.placement.Found`; None or no
+    pid: none here); a process is asked for its cpu from the second sample on (psutil
+    measures between two calls)."""
 
-    def __init__(self, resolve: Callable[[str], int | None]) -> None:
+    def __init__(self, resolve: Callable[[str], Resolved]) -> None:
         self.resolve = resolve
         self._procs: dict[str, psutil.Process] = {}
 
@@ -69,11 +77,11 @@ class PropertySampler:
         for node in sorted(set(nodes)):
             proc = self._procs.get(node)
             if proc is None or not proc.is_running():
-                pid = self.resolve(node)
-                if pid is None or pid < 0:
+                found = as_found(self.resolve(node))
+                if found is None or found.pid is None:
                     continue
                 try:
-                    proc = self._procs[node] = psutil.Process(pid)
+                    proc = self._procs[node] = psutil.Process(found.pid)
                     proc.cpu_percent(None)
                 except psutil.Error:
                     pass

@@ -12,7 +12,13 @@ message type and back.  docs/runtime.md documents the same mapping for users.
     level        0 (OK) for the literal, 2 (ERROR) for its negation
     message      the literal: "ok(pose)" or "not_ok(pose)"
     hardware_id  the observer that reported it: "pose_gobs"
-    values       since: when the observer's verdict last changed (wall-clock s since 1970)
+    values       since: when the observer's verdict last changed (wall-clock s since 1970);
+                 on a node's running(n): watched ("process" or "middleware") and how (the
+                 proof that the process is the node's, or why there is none)
+
+An atom whose verdict is withdrawn (a property of a node no process of which can be
+measured, an atom of an observer host that is gone) has a row with level 3 (STALE) and
+message "unknown": the engine takes its literal out of Θ.
 
 ``/diagnosis``, one row per minimal diagnosis (no rows: the robot is healthy)::
 
@@ -36,7 +42,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from rac.diagnosis import DiagnosisResult
-from rac.logic import NEG_PREFIX, parse_atom
+from rac.logic import NEG_PREFIX, Atom, parse_atom
 from rac.observe import ChannelState, Verdict
 
 OK, WARN, ERROR, STALE = 0, 1, 2, 3
@@ -85,23 +91,59 @@ def rows_from_array(array: Any) -> list[Row]:
 # -- /observations ---------------------------------------------------------------------
 
 
-def literal_row(verdict: Verdict, observer: str, since: float | None = None) -> Row:
+UNKNOWN = "unknown"
+
+
+def literal_row(
+    verdict: Verdict,
+    observer: str,
+    since: float | None = None,
+    extra: tuple[tuple[str, str], ...] = (),
+) -> Row:
     """``since`` defaults to the verdict's own time."""
     return Row(
         name=str(verdict.atom),
         level=OK if verdict.positive else ERROR,
         message=str(verdict),
         hardware_id=observer,
-        values=(("since", f"{verdict.t if since is None else since:.3f}"),),
+        values=(("since", f"{verdict.t if since is None else since:.3f}"), *extra),
     )
+
+
+def unknown_row(atom: Atom, observer: str, t: float) -> Row:
+    """The row of an atom whose verdict is withdrawn."""
+    return Row(str(atom), STALE, UNKNOWN, observer, (("since", f"{t:.3f}"),))
+
+
+def row_unknown(row: Row) -> Atom | None:
+    """The atom an "unknown" row withdraws (None: the row is not one)."""
+    if row.level != STALE or row.message.strip() != UNKNOWN:
+        return None
+    try:
+        return parse_atom(row.name.strip())
+    except ValueError:
+        return None
+
+
+def row_atom(row: Row) -> Atom | None:
+    """The atom of an ``/observations`` row (None: not one of ours)."""
+    verdict = row_verdict(row, 0.0)
+    if verdict is None:
+        return None
+    atom = verdict.atom
+    if atom.predicate.startswith(NEG_PREFIX):
+        atom = Atom(atom.predicate.removeprefix(NEG_PREFIX), atom.args)
+    return atom
 
 
 def row_verdict(row: Row, t: float) -> Verdict | None:
     """The literal a ``/observations`` row carries (None: not one of ours).
 
     The message holds the literal; a row from another tool may only have the atom as its
-    name, and then its level says whether it holds.
+    name, and then its level says whether it holds.  An "unknown" row carries none.
     """
+    if row_unknown(row) is not None:
+        return None
     text = row.message.strip()
     positive = not text.startswith(NEG_PREFIX)
     try:

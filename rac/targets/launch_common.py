@@ -116,9 +116,14 @@ def render_runtime_launch(compiled: Compiled, template: str = "runtime.launch.j2
     runtime: the observer host, the diagnosis engine, the repair engine and, with
     switchable hardware, the board client."""
     board = any(h.switchable for h in compiled.model.hardware)
+    machines = [
+        {"name": m.name.value, "address": m.address or m.name.value}
+        for m in compiled.model.machines
+    ]
     return render(
         template,
         robot=compiled.model.name.value,
         board=board,
         observers=len(compiled.observers),
+        machines=machines,
     )

@@ -1,0 +1,45 @@
+"""The racc agent over rospy (rac.runtime.routing): the repairer's requests to another
+machine's agent, and the agent's side in that machine's observer host."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+from rac.runtime.nodes import RepairJob
+from rac.runtime.repairer import Actuator
+from rac.runtime.routing import Agent, RoutedActuator, agent_topic, no_agent
+
+CONNECT_S = 3.0  # for the agents' subscriptions to connect before the first request
+
+
+def routed_actuator(rospy: Any, job: RepairJob, local: Any) -> Actuator:
+    """``local`` for this machine's nodes, the agents of the others' through their topics
+    (unchanged when the model places no node)."""
+    if not job.placements:
+        return local  # type: ignore[no-any-return]
+    from diagnostic_msgs.msg import KeyValue
+
+    others = sorted({m for m, _ in job.placements.values() if m and m != job.machine})
+    pubs = {m: rospy.Publisher(agent_topic(m), KeyValue, queue_size=10) for m in others}
+    deadline = time.time() + CONNECT_S
+    while any(p.get_num_connections() == 0 for p in pubs.values()) and time.time() < deadline:
+        time.sleep(0.1)
+
+    def ask(machine: str, action: str, node: str) -> None:
+        pub = pubs.get(machine)
+        if pub is None or pub.get_num_connections() == 0:
+            raise no_agent(machine, node)
+        pub.publish(KeyValue(key=action, value=node))
+
+    return RoutedActuator(local, job.placements, job.machine, ask, local.switch)
+
+
+def serve_agent(rospy: Any, agent: Agent) -> Any:
+    """Subscribe the agent to its machine's requests."""
+    from diagnostic_msgs.msg import KeyValue
+
+    def receive(msg: Any) -> None:
+        agent.request(msg.key, msg.value)
+
+    return rospy.Subscriber(agent_topic(agent.machine), KeyValue, receive, queue_size=20)

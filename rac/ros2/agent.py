@@ -1,0 +1,66 @@
+"""The racc agent over rclpy (rac.runtime.routing): the repairer's requests to another
+machine's agent, and the agent's side in that machine's observer host."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from typing import Any
+
+from rac.passes.machines import node_placements
+from rac.passes.observers import ObserverSpec
+from rac.ros2.common import Session, reliable
+from rac.runtime.nodes import RepairJob
+from rac.runtime.repairer import Actuator
+from rac.runtime.routing import Agent, RoutedActuator, agent_topic, no_agent
+
+CONNECT_S = 3.0  # for the agents' subscriptions to be matched before the first request
+
+
+def routed_actuator(session: Session, job: RepairJob, local: Any) -> Actuator:
+    """``local`` for this machine's nodes, the agents of the others' through their topics
+    (unchanged when the model places no node)."""
+    if not job.placements:
+        return local  # type: ignore[no-any-return]
+    from diagnostic_msgs.msg import KeyValue
+
+    others = sorted({m for m, _ in job.placements.values() if m and m != job.machine})
+    node = session.node
+    pubs = {m: node.create_publisher(KeyValue, agent_topic(m), reliable(10)) for m in others}
+    deadline = time.time() + CONNECT_S
+    while any(p.get_subscription_count() == 0 for p in pubs.values()) and time.time() < deadline:
+        time.sleep(0.1)
+
+    def ask(machine: str, action: str, name: str) -> None:
+        pub = pubs.get(machine)
+        if pub is None or pub.get_subscription_count() == 0:
+            raise no_agent(machine, name)
+        pub.publish(KeyValue(key=action, value=name))
+
+    return RoutedActuator(local, job.placements, job.machine, ask, local.switch)
+
+
+def start_agent(
+    session: Session, specs: Sequence[ObserverSpec], machine: str | None, launch: str | None
+) -> Agent | None:
+    """The racc agent of ``machine``, restarting its nodes from ``launch`` (a ROS 2 launch
+    XML file) or by their container; None without a machine."""
+    if machine is None:
+        return None
+    from diagnostic_msgs.msg import KeyValue
+
+    from rac.ros2.repairer import Ros2Actuator
+
+    local = Ros2Actuator(session, launch, None) if launch else None
+    agent = Agent(machine, node_placements(specs), local)
+
+    def receive(msg: Any) -> None:
+        agent.request(msg.key, msg.value)
+
+    session.node.create_subscription(KeyValue, agent_topic(machine), receive, reliable(20))
+    session.log(
+        0,
+        f"racc agent {machine}: restarts its nodes on {agent_topic(machine)} "
+        f"(launch file {launch or 'none'})",
+    )
+    return agent

@@ -1,0 +1,187 @@
+"""Whose process is a node's: the proof that a pid belongs to a node, or why none exists.
+
+A node's process is watched (liveness from the process table, cpu and memory) only when
+it is proven to be the node's: the pid is one of this PID namespace and this host (this
+network namespace), and the process holds
+the node's XML-RPC port (ROS 1) or its command line names the node (``__name:=`` or
+``__node:=``).  A node whose pid cannot be trusted is watched through the middleware alone
+(the master or the graph, and its topics): its liveness is what the middleware says, and
+its cpu and memory are unknown, never ``ok``.
+
+The pid a ROS 1 node answers to ``getPid`` is counted in the node's own PID namespace: a
+node in a container answers 1, and this host's process 1 is the init process.  That is why
+a pid alone proves nothing.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import psutil
+
+from rac.logic import Atom
+from rac.passes.observers import ObserverSpec
+
+
+@dataclass(frozen=True, slots=True)
+class Found:
+    """What the middleware and the process table say of a node that is there.
+
+    ``pid``: a process of this host, proven to be the node's (None: the node is watched
+    through the middleware only); ``how``: the proof, or why there is none, for the log and
+    for ``/observations``."""
+
+    pid: int | None
+    how: str
+
+    @property
+    def watched(self) -> str:
+        """The value ``watched`` on the node's ``/observations`` row."""
+        return "process" if self.pid is not None else "middleware"
+
+
+def pid_namespace(pid: int | str, kind: str = "pid") -> str | None:
+    """``pid:[inode]`` of a process's PID namespace (``kind`` "net": ``net:[inode]``, its
+    network namespace); None: not readable."""
+    try:
+        return os.readlink(f"/proc/{pid}/ns/{kind}")
+    except OSError:
+        return None
+
+
+def own_pid_namespace() -> str | None:
+    return pid_namespace("self")
+
+
+def in_own_pid_namespace(pid: int) -> bool:
+    """The process ``pid`` of this process table shares this process's PID namespace.  A
+    process in a child namespace (a container seen from its host) has another number
+    inside, so a pid it reports about itself is not ours."""
+    own = own_pid_namespace()
+    return own is not None and pid_namespace(pid) == own
+
+
+def on_this_host(pid: int) -> bool:
+    """The process shares this process's network namespace: the same host as far as the
+    middleware is concerned (a container with its own network, or a second computer
+    simulated by a network namespace, is another host)."""
+    own = pid_namespace("self", "net")
+    return own is not None and pid_namespace(pid, "net") == own
+
+
+def listening_inodes(port: int) -> set[str]:
+    """The inodes of the sockets listening on TCP ``port`` in this network namespace (from
+    /proc/net/tcp and tcp6: one read each, where psutil builds every connection of the
+    machine, about 100 ms on a busy one)."""
+    want = f":{port:04X} "
+    found = set()
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        try:
+            with open(table, encoding="ascii") as f:
+                next(f, None)
+                for line in f:
+                    fields = line.split()
+                    # local address, state 0A (LISTEN), inode
+                    if len(fields) > 9 and (fields[1] + " ").endswith(want) and fields[3] == "0A":
+                        found.add(fields[9])
+        except OSError:
+            continue
+    return found
+
+
+def holds_port(pid: int, port: int) -> bool:
+    """The process listens on TCP ``port`` (a ROS 1 node's XML-RPC server)."""
+    inodes = {f"socket:[{i}]" for i in listening_inodes(port)}
+    if not inodes:
+        return False
+    fd_dir = f"/proc/{pid}/fd"
+    try:
+        fds = os.listdir(fd_dir)
+    except OSError:
+        return False
+    for fd in fds:
+        try:
+            if os.readlink(f"{fd_dir}/{fd}") in inodes:
+                return True
+        except OSError:
+            continue
+    return False
+
+
+def names_node(cmdline: Sequence[str], node: str) -> bool:
+    """The command line remaps the node's name to it (``__name:=`` in ROS 1, ``__node:=``
+    in ROS 2; the namespace is not checked: ROS_NAMESPACE may carry it)."""
+    base = node.strip("/").rpartition("/")[2]
+    return f"__name:={base}" in cmdline or f"__node:={base}" in cmdline
+
+
+def cmdline(pid: int) -> list[str]:
+    try:
+        return list(psutil.Process(pid).cmdline())
+    except psutil.Error:
+        return []
+
+
+def prove_ros1(node: str, pid: int, port: int | None) -> Found:
+    """The pid a local ROS 1 node answered to ``getPid``, trusted or not."""
+    if not psutil.pid_exists(pid):
+        return Found(None, f"getPid answered {pid}, which is no process here")
+    if not in_own_pid_namespace(pid):
+        return Found(None, f"getPid answered {pid}, a process of another PID namespace")
+    if not on_this_host(pid):
+        return Found(None, f"getPid answered {pid}, a process of another network namespace")
+    # The command line first: reading it costs a fraction of finding a port's socket.
+    if names_node(cmdline(pid), node):
+        return Found(pid, f"pid {pid}'s command line names it")
+    if port is not None and holds_port(pid, port):
+        return Found(pid, f"pid {pid} holds its XML-RPC port {port}")
+    return Found(
+        None,
+        f"getPid answered {pid}, which neither holds its XML-RPC port {port} nor names it "
+        "(a node in a container or another PID namespace)",
+    )
+
+
+def prove_by_cmdline(pid: int) -> Found:
+    """A process found by the ``__node:=`` on its command line (ROS 2), trusted when it is
+    of this PID namespace and this host."""
+    if not in_own_pid_namespace(pid):
+        why = f"its process {pid} is in another PID namespace (a container): not watched"
+        return Found(None, why)
+    if not on_this_host(pid):
+        return Found(None, f"its process {pid} is in another network namespace: not watched")
+    return Found(pid, f"pid {pid}'s command line names it")
+
+
+# -- what the observer host does with a node's placement ------------------------------------
+
+
+class PlacementView:
+    """The atoms of each node's NObs and PObs, and what a change of placement means for
+    them: a node watched through the middleware alone has no cpu or memory samples, so
+    its property atoms become unknown (their last verdict is withdrawn, not kept as
+    ``ok``), and its ``running`` row says ``watched: middleware``."""
+
+    def __init__(self, specs: Iterable[ObserverSpec]) -> None:
+        self.running: dict[str, Atom] = {}
+        self.properties: dict[str, list[Atom]] = {}
+        for spec in specs:
+            params = dict(spec.params)
+            node = str(params.get("node", "")).strip().lstrip("/")
+            if spec.kind == "NObs" and spec.atoms:
+                self.running[node] = spec.atoms[0]
+            elif spec.kind == "PObs":
+                self.properties.setdefault(node, []).extend(spec.atoms)
+
+    def values(self, node: str, found: Found) -> tuple[tuple[str, str], ...]:
+        return (("watched", found.watched), ("how", found.how))
+
+    def line(self, t: float, node: str, found: Found) -> str:
+        """A greppable log line: ``t=… watch talker: middleware (why)``."""
+        return f"t={t:.3f} watch {node}: {found.watched} ({found.how})"
+
+    def withdrawn(self, node: str, found: Found) -> list[Atom]:
+        """The atoms that become unknown when ``node`` is watched as ``found`` says."""
+        return [] if found.pid is not None else list(self.properties.get(node, ()))

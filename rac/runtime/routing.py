@@ -1,0 +1,181 @@
+"""Repairs on the right machine (issue 28): a node is restarted where it runs.
+
+The repairer runs on one machine (``--machine``, by default the robot's first).  A node of
+another machine is restarted by the racc agent of that machine, its observer host (``racc
+observe --machine NAME --launch FILE``): the repairer publishes the request on
+``/racc_agent/NAME`` (``diagnostic_msgs/KeyValue``: key the action, ``start_node`` or
+``stop_node``, value the node) and the agent carries it out with its machine's launch file,
+as the repairer would locally.  Like Kubernetes' kubelet, the agent that watches a
+machine's processes is the one that restarts them; no ssh and no env-loader are needed, and
+it works the same on ROS 2, which has no remote launch.  The executor verifies the effect
+in the observations, as for any step.
+
+A node in a container is restarted by restarting its container: ``docker restart NAME``
+(or ``podman``) on the node's machine, and stopped by ``docker stop NAME``.  A request no
+agent listens to, or a container command that fails, is RAC143.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import threading
+from collections.abc import Callable, Mapping, Sequence
+from typing import Protocol
+
+from rac.errors import Diagnostic, RacError
+
+AGENT_TOPIC = "/racc_agent/{machine}"
+ACTIONS = ("start_node", "stop_node", "kill_node")
+CONTAINER_VERBS = {"start_node": "restart", "stop_node": "stop", "kill_node": "kill"}
+CONTAINER_TIMEOUT_S = 30.0
+
+Placement = tuple[str | None, str | None]  # (machine, "runtime:NAME" container)
+
+
+class NodeActuator(Protocol):
+    def stop_node(self, node: str) -> str | None: ...
+
+    def kill_node(self, node: str) -> str | None: ...
+
+    def start_node(self, node: str) -> str | None: ...
+
+
+def agent_topic(machine: str) -> str:
+    return AGENT_TOPIC.format(machine=machine)
+
+
+def container_command(action: str, container: str) -> list[str]:
+    """``docker restart NAME`` to start a contained node, ``docker stop NAME`` to stop it,
+    ``docker kill NAME`` to kill it."""
+    runtime, _, name = container.partition(":")
+    return [runtime, CONTAINER_VERBS[action], name]
+
+
+def run_container(action: str, node: str, container: str) -> None:
+    """The container command, waited for; RAC143 when it cannot be run or fails."""
+    argv = container_command(action, container)
+    if shutil.which(argv[0]) is None:
+        raise _unrestartable(node, f"'{argv[0]}' is not installed here", argv)
+    try:
+        done = subprocess.run(
+            argv, capture_output=True, text=True, timeout=CONTAINER_TIMEOUT_S, check=False
+        )
+    except (OSError, subprocess.TimeoutExpired) as err:
+        raise _unrestartable(node, str(err), argv) from None
+    if done.returncode != 0:
+        why = (done.stderr or done.stdout).strip().splitlines()[-1:] or [f"exit {done.returncode}"]
+        raise _unrestartable(node, why[0], argv)
+
+
+def _unrestartable(node: str, why: str, argv: Sequence[str]) -> RacError:
+    return RacError(
+        [
+            Diagnostic(
+                "RAC143",
+                f"cannot {'restart' if argv[1] == 'restart' else 'stop'} '{node}' "
+                f"({' '.join(argv)}): {why}",
+                hint="install the container runtime the model names on that machine",
+            )
+        ]
+    )
+
+
+def no_agent(machine: str, node: str) -> RacError:
+    return RacError(
+        [
+            Diagnostic(
+                "RAC143",
+                f"no racc agent of machine '{machine}' listens on {agent_topic(machine)} "
+                f"to restart '{node}'",
+                hint=f"start 'racc observe OBSERVERS --machine {machine} --launch FILE' there "
+                "(the compiled observers.launch does)",
+            )
+        ]
+    )
+
+
+class RoutedActuator:
+    """The repairer's actuator: a node of this machine through ``local`` (or its container
+    command), a node of another machine through ``ask(machine, action, node)``."""
+
+    def __init__(
+        self,
+        local: NodeActuator,
+        placements: Mapping[str, Placement],
+        here: str | None,
+        ask: Callable[[str, str, str], None],
+        switch: Callable[[str, bool], None],
+    ) -> None:
+        self.local, self.placements, self.here, self.ask = local, placements, here, ask
+        self._switch = switch
+
+    def _do(self, action: str, node: str) -> str | None:
+        machine, container = self.placements.get(node.strip("/"), (None, None))
+        if machine is not None and self.here is not None and machine != self.here:
+            self.ask(machine, action, node)
+            return f"asked the racc agent of machine {machine}"
+        if container is not None:
+            run_container(action, node, container)
+            return " ".join(container_command(action, container))
+        note: str | None = getattr(self.local, action)(node)
+        return note
+
+    def stop_node(self, node: str) -> str | None:
+        return self._do("stop_node", node)
+
+    def kill_node(self, node: str) -> str | None:
+        return self._do("kill_node", node)
+
+    def start_node(self, node: str) -> str | None:
+        return self._do("start_node", node)
+
+    def switch(self, device: str, on: bool) -> str | None:
+        self._switch(device, on)
+        return None
+
+
+class Agent:
+    """The racc agent of one machine, in its observer host: requests arrive on any thread
+    and are carried out on the host's own loop (:meth:`step`), where roslaunch may run."""
+
+    def __init__(
+        self,
+        machine: str,
+        placements: Mapping[str, Placement],
+        local: NodeActuator | None,
+    ) -> None:
+        self.machine, self.placements, self.local = machine, placements, local
+        self._queue: list[tuple[str, str]] = []
+        self._lock = threading.Lock()
+
+    def request(self, action: str, node: str) -> None:
+        with self._lock:
+            self._queue.append((action, node))
+
+    def step(self, t: float) -> list[tuple[int, str]]:
+        """Carry out the requests that came; (level, log line) for each."""
+        with self._lock:
+            queue, self._queue = self._queue, []
+        out = []
+        for action, node in queue:
+            out.append(self._carry_out(t, action, node))
+        return out
+
+    def _carry_out(self, t: float, action: str, node: str) -> tuple[int, str]:
+        where, container = self.placements.get(node.strip("/"), (None, None))
+        head = f"t={t:.3f} agent {self.machine}: {action}({node})"
+        if action not in ACTIONS:
+            return 1, f"{head} refused: unknown action"
+        if where is not None and where != self.machine:
+            return 1, f"{head} refused: '{node}' runs on {where}"
+        try:
+            if container is not None:
+                run_container(action, node, container)
+            elif self.local is not None:
+                getattr(self.local, action)(node)
+            else:
+                return 2, f"{head} failed: no --launch file to start it from"
+        except RacError as err:
+            return 2, f"{head} failed: {err.diagnostics[0].code} {err.diagnostics[0].message}"
+        return 0, f"{head} done"

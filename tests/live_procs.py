@@ -1,0 +1,224 @@
+"""Processes of the live placement tests (containers, second hosts): started, watched line
+by line with the time each line came, and stopped by PID (never by name)."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+RACC = [sys.executable, "-m", "rac"]
+
+CHAT_MODEL = """robot chat
+topic /chatter : std_msgs/String @ 10 Hz
+node talker {
+  publishes /chatter
+  limits cpu 90 %, mem 900 MB
+}
+"""
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def chat_model(tmp: Path, text: str = CHAT_MODEL) -> Path:
+    path = tmp / "chat.ram"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def contained_argv(argv: Sequence[str]) -> list[str]:
+    """``argv`` in its own PID namespace, as a container runs it (getPid answers 1)."""
+    return ["unshare", "--pid", "--fork", "--mount-proc", *argv]
+
+
+def stop(proc: subprocess.Popen[bytes], sig: int = signal.SIGINT) -> None:
+    """SIGINT (roslaunch and rospy end their children), then SIGKILL; a process started in
+    its own session loses its whole group."""
+    if proc.poll() is None:
+        try:
+            if os.getpgid(proc.pid) == proc.pid:
+                os.killpg(proc.pid, sig)
+            else:
+                proc.send_signal(sig)
+            proc.wait(15)
+        except (subprocess.TimeoutExpired, ProcessLookupError):
+            pass
+    if proc.poll() is None:
+        try:
+            if os.getpgid(proc.pid) == proc.pid:
+                os.killpg(proc.pid, signal.SIGKILL)
+            else:
+                proc.kill()
+        except ProcessLookupError:
+            pass
+        proc.wait(5)
+
+
+class Watcher:
+    """A process whose output lines are kept with the time each arrived."""
+
+    def __init__(self, argv: Sequence[str], env: dict[str, str], log: Path | None = None) -> None:
+        self.proc = subprocess.Popen(
+            list(argv),
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
+        self.lines: list[tuple[float, str]] = []
+        self.log = log
+        self._lock = threading.Lock()
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self) -> None:
+        assert self.proc.stdout is not None
+        for raw in self.proc.stdout:
+            line = raw.decode("utf-8", "replace").rstrip("\n")
+            with self._lock:
+                self.lines.append((time.time(), line))
+            if self.log is not None:
+                with open(self.log, "a", encoding="utf-8") as f:
+                    f.write(line + "\n")
+
+    def lines_since(self, t: float) -> list[tuple[float, str]]:
+        with self._lock:
+            return [(s, line) for s, line in self.lines if s >= t]
+
+    def text(self) -> str:
+        with self._lock:
+            return "\n".join(line for _, line in self.lines)
+
+    def wait(self, what: Callable[[], float | None], timeout: float) -> float | None:
+        deadline = time.time() + timeout
+        while time.time() < deadline:
+            found = what()
+            if found is not None:
+                return found
+            time.sleep(0.05)
+        return None
+
+    def wait_line(self, needle: str, timeout: float, since: float = 0.0) -> float | None:
+        def found() -> float | None:
+            hits = [t for t, line in self.lines_since(since) if needle in line]
+            return hits[0] if hits else None
+
+        return self.wait(found, timeout)
+
+
+def start_roscore(port: int, env: dict[str, str], log: Path) -> subprocess.Popen[bytes]:
+    import rosgraph
+
+    out = open(log, "wb")  # noqa: SIM115 - closed with the process
+    core = subprocess.Popen(
+        ["roscore", "-p", str(port)], env=env, stdout=out, stderr=subprocess.STDOUT
+    )
+    uri = env["ROS_MASTER_URI"]
+    deadline = time.time() + 20
+    while not rosgraph.is_master_online(uri) and time.time() < deadline:
+        time.sleep(0.2)
+    assert rosgraph.is_master_online(uri), "roscore did not come up"
+    return core
+
+
+def can_make_netns() -> bool:
+    """``ip netns add`` works here (root, iproute2)."""
+    if os.geteuid() != 0 or shutil.which("ip") is None:
+        return False
+    name = f"racc_probe{os.getpid()}"
+    made = subprocess.run(["ip", "netns", "add", name], capture_output=True, check=False)
+    if made.returncode != 0:
+        return False
+    subprocess.run(["ip", "netns", "del", name], capture_output=True, check=False)
+    return True
+
+
+class NetPair:
+    """Two network namespaces joined by a veth pair: two "computers" on this one, at
+    10.213.X.1 (``a``) and 10.213.X.2 (``b``).  Everything bound inside them is reachable
+    only from them.  :meth:`close` kills what still runs in them (all started by the test)
+    and deletes them, their veth pair with them."""
+
+    def __init__(self) -> None:
+        tag = f"{os.getpid() % 100000}"
+        self.names = {"a": f"raccA{tag}", "b": f"raccB{tag}"}
+        x = os.getpid() % 250 + 1
+        self.addresses = {"a": f"10.213.{x}.1", "b": f"10.213.{x}.2"}
+        self._made: list[str] = []
+
+    def _ip(self, *args: str) -> None:
+        subprocess.run(["ip", *args], check=True, capture_output=True)
+
+    def open(self) -> NetPair:
+        a, b = self.names["a"], self.names["b"]
+        for ns in (a, b):
+            self._ip("netns", "add", ns)
+            self._made.append(ns)
+            self._ip("-n", ns, "link", "set", "lo", "up")
+        veth_a, veth_b = f"v{a[-9:]}", f"v{b[-9:]}"
+        self._ip(
+            "link", "add", veth_a, "netns", a, "type", "veth", "peer", "name", veth_b, "netns", b
+        )
+        for key, ns, dev in (("a", a, veth_a), ("b", b, veth_b)):
+            self._ip("-n", ns, "addr", "add", f"{self.addresses[key]}/24", "dev", dev)
+            self._ip("-n", ns, "link", "set", dev, "up")
+            # DDS discovers by multicast: send it over the pair (it stays in the two).
+            self._ip("-n", ns, "route", "add", "224.0.0.0/4", "dev", dev)
+        return self
+
+    def argv(self, which: str, argv: Sequence[str]) -> list[str]:
+        return ["ip", "netns", "exec", self.names[which], *argv]
+
+    def pids(self, which: str) -> list[int]:
+        done = subprocess.run(
+            ["ip", "netns", "pids", self.names[which]], capture_output=True, text=True, check=False
+        )
+        return [int(p) for p in done.stdout.split()]
+
+    def identify(self, pid: int) -> str:
+        done = subprocess.run(
+            ["ip", "netns", "identify", str(pid)], capture_output=True, text=True, check=False
+        )
+        return done.stdout.strip()
+
+    def close(self) -> None:
+        for ns in self._made:
+            for _ in range(3):
+                pids = self.pids("a" if ns == self.names["a"] else "b")
+                if not pids:
+                    break
+                for pid in pids:
+                    with contextlib.suppress(ProcessLookupError):
+                        os.kill(pid, signal.SIGKILL)
+                time.sleep(0.2)
+            subprocess.run(["ip", "netns", "del", ns], capture_output=True, check=False)
+        self._made.clear()
+
+
+def json_lines(watcher: Watcher, since: float = 0.0) -> list[dict[str, Any]]:
+    """The JSON objects a monitor printed one a line (a line that another writer's output
+    cut into is skipped)."""
+    out = []
+    for _, line in watcher.lines_since(since):
+        start = line.find('{"t"')
+        if start < 0:
+            continue
+        try:
+            out.append(json.loads(line[start:]))
+        except json.JSONDecodeError:
+            continue
+    return out

@@ -1,0 +1,165 @@
+"""Several machines without ROS (issue 28): where each observer runs, which host the engine
+hears, what happens when one goes, and where a node is restarted (rac.passes.machines,
+rac.runtime.hosts, rac.runtime.routing)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from rac.errors import RacError
+from rac.logic import Atom
+from rac.parse import parse_ram
+from rac.passes.machines import machines_of, node_placements, on_machine, spec_machine
+from rac.pipeline import compile_model
+from rac.runtime.diagnoser import EngineLoop
+from rac.runtime.hosts import HostWatch
+from rac.runtime.routing import Agent, RoutedActuator, container_command, run_container
+from rac.runtime.status import Row
+from rac.targets import EmitOptions, emit_all
+
+DUO = """robot duo
+machine base address 10.0.0.1
+machine arm address 10.0.0.2
+hardware cam switchable channel 1
+topic /chatter @ 10 Hz
+topic /image @ 5 Hz
+node talker on arm { publishes /chatter; limits cpu 50 % }
+node camera drives cam in container cam_1 via podman { publishes /image; reports cam }
+node listener { subscribes /chatter, /image }
+"""
+
+
+def _compiled(text: str = DUO):  # type: ignore[no-untyped-def]
+    return compile_model(parse_ram(text, "duo.ram"))
+
+
+def test_each_observer_runs_on_its_machine() -> None:
+    specs = _compiled().observers
+    where = {s.name: spec_machine(s) for s in specs}
+    assert where["talker_nobs"] == where["talker_cpu_pobs"] == "arm"
+    assert where["chatter_gobs"] == "arm"  # where its publisher runs
+    assert where["camera_nobs"] == where["image_gobs"] == "base"  # no 'on': the first machine
+    assert where["board_hobs"] == where["cam_dobs"] == "base"
+    assert machines_of(specs) == ("base", "arm")
+    assert {s.name for s in on_machine(specs, "arm")} == {
+        "talker_nobs",
+        "talker_cpu_pobs",
+        "chatter_gobs",
+    }
+    assert on_machine(specs, None) == specs
+    assert node_placements(specs)["camera"] == ("base", "podman:cam_1")
+
+
+def test_a_model_without_machines_compiles_as_before() -> None:
+    text = "robot r\ntopic /t @ 10 Hz\nnode n { publishes /t }\n"
+    compiled = _compiled(text)
+    assert all(spec_machine(s) is None for s in compiled.observers)
+    launch = emit_all(compiled, EmitOptions())["observers.launch"]
+    assert "<machine" not in launch and 'name="racc_observer"' in launch
+
+
+def test_the_launch_file_starts_one_host_per_machine() -> None:
+    launch = emit_all(_compiled(), EmitOptions())["observers.launch"]
+    assert '<machine name="base" address="10.0.0.1"' in launch and 'default="true"' in launch
+    assert '<machine name="arm" address="10.0.0.2"' in launch
+    assert 'machine="arm" pkg="racc" type="observe" name="racc_observer_arm"' in launch
+    assert "--machine arm --launch=$(arg robot_launch)" in launch
+    assert '--machine base"' in launch  # the repairer runs on the first machine
+
+
+class Local:
+    def __init__(self) -> None:
+        self.calls: list[tuple[str, str]] = []
+
+    def start_node(self, node: str) -> None:
+        self.calls.append(("start_node", node))
+
+    def stop_node(self, node: str) -> None:
+        self.calls.append(("stop_node", node))
+
+
+def _fake_runtime(tmp: Path, name: str, code: int = 0) -> Path:
+    script = tmp / name
+    script.write_text(f'#!/bin/sh\necho "$@" >> {tmp}/calls\nexit {code}\n', encoding="utf-8")
+    script.chmod(0o755)
+    return tmp / "calls"
+
+
+def test_a_node_is_restarted_where_it_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    calls = _fake_runtime(tmp_path, "podman")
+    monkeypatch.setenv("PATH", f"{tmp_path}:{os.environ['PATH']}")
+    local, asked = Local(), []
+    placements = node_placements(_compiled().observers)
+    routed = RoutedActuator(
+        local, placements, "base", lambda *a: asked.append(a), lambda d, on: None
+    )
+    routed.start_node("talker")
+    routed.start_node("listener")
+    routed.stop_node("camera")
+    routed.start_node("camera")
+    assert asked == [("arm", "start_node", "talker")]
+    assert local.calls == [("start_node", "listener")]
+    assert calls.read_text().split("\n")[:2] == ["stop cam_1", "restart cam_1"]
+
+
+def test_a_container_that_cannot_be_restarted_is_rac143(tmp_path: Path) -> None:
+    assert container_command("start_node", "docker:cam") == ["docker", "restart", "cam"]
+    with pytest.raises(RacError) as err:
+        run_container("start_node", "camera", "no_such_runtime_here:cam")
+    assert err.value.diagnostics[0].code == "RAC143"
+    _fake_runtime(tmp_path, "failing", code=1)
+    with pytest.raises(RacError) as err:
+        run_container("start_node", "camera", f"{tmp_path / 'failing'}:cam")
+    assert err.value.diagnostics[0].code == "RAC143"
+
+
+def test_the_agent_restarts_only_the_nodes_of_its_machine() -> None:
+    local = Local()
+    agent = Agent("arm", node_placements(_compiled().observers), local)
+    agent.request("start_node", "talker")
+    agent.request("start_node", "listener")  # runs on base
+    agent.request("reboot", "talker")
+    lines = agent.step(1.0)
+    assert local.calls == [("start_node", "talker")]
+    assert [level for level, _ in lines] == [0, 1, 1]
+    assert "runs on base" in lines[1][1]
+    bare = Agent("arm", node_placements(_compiled().observers), None)
+    bare.request("start_node", "talker")
+    assert bare.step(2.0)[0][0] == 2  # no launch file to start it from
+
+
+def test_a_lost_host_has_its_atoms_unknown(tmp_path: Path) -> None:
+    watch = HostWatch(lost_after_s=5.0)
+    atom = Atom("running", ("talker",))
+    assert not watch.heard_from("racc_observer_arm", [atom], 0.0)
+    assert watch.newly_lost(4.0) == []
+    assert watch.newly_lost(5.5) == [("racc_observer_arm", frozenset({atom}))]
+    assert watch.rows("engine", 6.0)[0].level == 2
+    assert watch.heard_from("racc_observer_arm", [atom], 7.0)  # back
+    # In the engine: a not_running from the lost host no longer counts as a fault.
+    build = tmp_path / "build"
+    build.mkdir()
+    for name, text in emit_all(_compiled(), EmitOptions()).items():
+        (build / name).write_text(text, encoding="utf-8")
+    from rac.diagnosis import load_theory
+
+    logged: list[str] = []
+    engine = EngineLoop(
+        str(build / "model.yaml"),
+        load_theory,
+        "duo",
+        "racc_engine",
+        lambda level, text: logged.append(text),
+        host_lost_s=5.0,
+    )
+    row = Row("running(talker)", 2, "not_running(talker)", "talker_nobs", (("host", "h_arm"),))
+    engine.observation_rows([row], 100.0)
+    tick = engine.step(100.0)
+    assert tick is not None and tick.result.diagnoses == (("talker",),)
+    tick = engine.step(106.0)
+    assert tick is not None and tick.result.consistent
+    assert any("observer host h_arm lost" in line for line in logged)
+    assert tick.hosts[0].level == 2 and "unknown" in tick.hosts[0].message
