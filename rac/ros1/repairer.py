@@ -154,11 +154,15 @@ class Ros1Actuator:
                 uri = node_uri(node)
             except (OSError, xmlrpc.client.Error):
                 uri = None
-            parsed = urlparse(uri or "")
+            if uri is None:
+                return "it is no longer registered with the master: it stopped"
+            parsed = urlparse(uri)
             local = (parsed.hostname or "") in LOCAL_HOSTS or (parsed.hostname or "").startswith(
                 "127."
             )
             pid = listening_pid(parsed.port) if local and parsed.port else None
+            if local and pid is None:
+                return "no process listens on its XML-RPC port: it stopped"
         return kill_pids(node, [pid] if pid is not None else [])
 
     def switch(self, device: str, on: bool) -> None:

@@ -23,7 +23,7 @@ import threading
 
 from rac.errors import Diagnostic, RacError
 from rac.ros2.agent import routed_actuator
-from rac.ros2.common import Session, reliable
+from rac.ros2.common import Session, graph_nodes, reliable
 from rac.ros2.launch import LaunchNode, command_line, load_launch
 from rac.runtime.detached import Detached, kill_pids, started_note
 from rac.runtime.nodes import RepairJob, run_repair_node
@@ -87,7 +87,14 @@ class Ros2Actuator:
         pid = self.detached.pid(node)
         if pid is not None and self.detached.signal(node, signal.SIGKILL):
             return f"SIGKILL to pid {pid} (started by racc)"
-        return kill_pids(node, [p.pid for p in node_processes(node)])
+        pids = [p.pid for p in node_processes(node)]
+        if not pids and node.strip("/") not in self._graph():
+            return "no process of it left: it stopped (the observers will say)"
+        return kill_pids(node, pids)
+
+    def _graph(self) -> set[str]:
+        session = getattr(self, "session", None)
+        return graph_nodes(session) if session is not None else set()
 
     def switch(self, device: str, on: bool) -> None:
         if self.switches.get_subscription_count() == 0:

@@ -654,6 +654,7 @@ class RepairExecutor:
             self._plan_done = now
 
     def _check_step(self, now: float) -> None:
+        s = self.settings
         if self._attempt == 0:  # the step is not begun: check it may go, then begin it
             self._next_step(now)
             return
@@ -675,17 +676,16 @@ class RepairExecutor:
             self._retry_or_escalate(now, step)
             return
         effect = self._effect(step)
-        if not self._failed:
-            if effect is None:
-                done = now - self._step_started >= self.settings.unobservable_pause_s
-                shown = "assumed (no observer reports it)"
-            else:
-                done = self._holds(*effect)
-                shown = f"{self._literal(effect)} observed after {now - self._step_started:.2f} s"
-            if done:
-                self._emit(OK, action, target, f"done: {shown}")
-                self._advance(now)
-                return
+        if effect is None:  # assumed, unless the request failed
+            done = not self._failed and now - self._step_started >= s.unobservable_pause_s
+            shown = "assumed (no observer reports it)"
+        else:  # a failed request whose effect shows anyway (the node stopped by itself)
+            done = self._holds(*effect)
+            shown = f"{self._literal(effect)} observed after {now - self._step_started:.2f} s"
+        if done:
+            self._emit(OK, action, target, f"done: {shown}")
+            self._advance(now)
+            return
         if now < self._deadline:
             return
         self._retry_or_escalate(now, step)

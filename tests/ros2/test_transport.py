@@ -138,6 +138,10 @@ def test_the_ros2_actuator_starts_detached_stops_politely_and_kills(tmp_path: Pa
     finally:
         if stubborn.poll() is None:
             stubborn.kill()
+    # No process left and not in the graph: it stopped (the observers confirm it).
+    assert "it stopped" in actuator.kill_node("racc_test_nowhere")
+    # In the graph without a local process: on another machine, out of reach.
+    actuator._graph = lambda: {"racc_test_remote"}  # type: ignore[method-assign]
     with pytest.raises(RacError) as err:
-        actuator.kill_node("racc_test_nowhere")
+        actuator.kill_node("racc_test_remote")
     assert err.value.diagnostics[0].code == "RAC124"

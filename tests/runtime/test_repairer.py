@@ -515,3 +515,30 @@ def test_a_node_the_plan_stops_is_not_part_of_a_shutdown(theory: Theory) -> None
     rig.run(1.0)
     assert rig.entries("robot") == []
     assert rig.robot.actions() == [("stop_node", "hokuyo_node"), ("start_node", "hokuyo_node")]
+
+
+def test_a_failed_request_whose_effect_shows_anyway_completes_the_step(theory: Theory) -> None:
+    # The node stopped late, on its own: the kill finds nothing to kill and fails, but
+    # not_running(hokuyo_node) shows: the step is done, the plan goes on.
+    class Late(Robot):
+        def kill_node(self, node: str) -> str | None:
+            self.calls.append(("kill_node", node, self.clock.t))
+            assert self.executor is not None
+            self.executor.observe(Verdict(self.clock.t, Atom("running", (node,)), False))
+            raise RacError([Diagnostic("RAC124", f"cannot kill '{node}'")])
+
+    rig = Rig(theory)
+    rig.robot = Late(rig.clock)
+    rig.robot.frozen = True
+    rig.ex.actuator = rig.robot
+    rig.robot.executor = rig.ex
+    rig.healthy()
+    rig.observe("ok(scan)", False)
+    rig.ex.diagnosis((("hokuyo_node",),))
+    rig.run(10.0)
+    assert rig.robot.actions()[:3] == [
+        ("stop_node", "hokuyo_node"),
+        ("kill_node", "hokuyo_node"),
+        ("start_node", "hokuyo_node"),
+    ]
+    assert rig.entries("escalate") == []
