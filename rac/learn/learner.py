@@ -370,6 +370,11 @@ def _learn_relations(
     chosen = holdout.blocks(recording, options.blocks)
     if found and chosen:
         found, held, rejected = _held_out(recording, trends, found, chosen, options, flow)
+        if rejected:
+            notes.append(
+                f"{len(rejected)} candidate relations did not hold on held-out blocks of the "
+                f"recording ({len(chosen)} blocks), not kept: the end of the model says why"
+            )
     elif found and options.blocks:
         notes.append(
             "the recording is too short to cut into blocks: relations are not held out "
