@@ -176,3 +176,13 @@ def test_the_text_is_the_same_whatever_the_hash_seed() -> None:
             )
             texts.add((view[0], done.stdout))
     assert len(texts) == 2
+
+
+def test_replay_checks_the_diagram_file_before_replaying(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    missing = str(tmp_path / "missing.bag")
+    code, _, err = run(
+        capsys, "replay", PIONEER, missing, "--diagram-at", "1", "--diagram", "x.txt"
+    )
+    assert code == 1 and "error[RAC068]" in err and "missing.bag" not in err

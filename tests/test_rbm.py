@@ -122,6 +122,20 @@ def _strongly_connected(members: tuple[str, ...], edges: set[tuple[str, str]]) -
     return True
 
 
+def _on_cycles(edges: set[tuple[str, str]]) -> set[str]:
+    """The topics that can lie in a strongly connected set: those left after removing, again
+    and again, any topic with no input or no reader among the rest.  The subsets below are
+    then drawn from these only (a 150-topic model without loops has none: 2^150 subsets
+    otherwise)."""
+    left = {t for edge in edges for t in edge}
+    while True:
+        inner = {(a, b) for a, b in edges if a in left and b in left}
+        keep = {b for _, b in inner} & {a for a, _ in inner}
+        if keep == left:
+            return left
+        left = keep
+
+
 def reference_loop_rules(
     nodes: list[dict[str, Any]], switchable: set[str]
 ) -> list[tuple[list[str], str]]:
@@ -132,7 +146,9 @@ def reference_loop_rules(
         for n in nodes
         for p in n.get("publishes") or []
     ]
-    topics = sorted({p["topic"] for _, _, p in pubs})
+    topics = sorted(
+        _on_cycles({(i, p["topic"]) for _, _, p in pubs for i in p.get("affected_by") or []})
+    )
     out = []
     for size in range(2, len(topics) + 1):
         for subset in itertools.combinations(topics, size):

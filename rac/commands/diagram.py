@@ -165,7 +165,7 @@ def run(args: argparse.Namespace) -> int:
     from rac.targets.dot import SUMMARY_ABOVE_NODES, View, emit_diagram
 
     started = time.perf_counter()
-    suffix = _suffix(args.output)
+    suffix = check_suffix(args.output)
     compiled = load_and_compile(args.model, quiet=args.quiet)
     model = compiled.model
     if args.focus is not None:
@@ -197,7 +197,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _suffix(output: str | None) -> str:
+def check_suffix(output: str | None) -> str:
     if output is None:
         return ".dot"
     suffix = Path(output).suffix.lower()
@@ -398,4 +398,6 @@ def draw_health(compiled: Compiled, at: float, timeline: Timeline, output: str) 
     from rac.targets.dot import View, emit_diagram
 
     view = View(health=replay_health(timeline, at))
-    write_diagram(output, emit_diagram(compiled.model, compiled.observers, view), _suffix(output))
+    write_diagram(
+        output, emit_diagram(compiled.model, compiled.observers, view), check_suffix(output)
+    )

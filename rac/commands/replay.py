@@ -133,6 +133,10 @@ def run(args: argparse.Namespace) -> int:
 
     if args.plot:
         require_matplotlib()
+    if args.diagram_at is not None:
+        from rac.commands.diagram import check_suffix
+
+        check_suffix(args.diagram)  # before the replay, not after it
     compiled = load_and_compile(args.model, quiet=args.quiet)
     model = replayable(compiled)
     truth_notes: list[str] = []
