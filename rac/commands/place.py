@@ -143,6 +143,16 @@ def summary(p: Placement) -> str:
         f"before: detectable {b.detectable}/{len(b.faults)}, isolable {b.isolable}/{len(b.faults)}"
         f"; after: detectable {a.detectable}/{len(a.faults)}, isolable {a.isolable}/{len(a.faults)}"
     )
+    unmeasured = [
+        p.candidates[j].key
+        for j in p.chosen
+        if p.candidates[j].kind == "GObs" and not p.candidates[j].learned
+    ]
+    if unmeasured:
+        lines.append(
+            f"rates to measure (racc record, racc learn): {', '.join(unmeasured)}; the patch "
+            "writes none, 'after' counts them as periodic"
+        )
     for r in p.unresolvable:
         lines.append(f"no candidate observer {r.describe()}")
     return "\n".join(lines)
