@@ -3,6 +3,7 @@ The live points (racc run, racc watch, the demo) are in tests/ros1 and tests/ros
 
 from __future__ import annotations
 
+import json
 import shlex
 from pathlib import Path
 
@@ -196,3 +197,22 @@ def test_replay_goes_on_without_an_unusable_faults_file(
     assert code == 0, err
     assert "episode 1" in out  # replayed, unscored
     assert "not a usable faults file (RAC085" in err and "replaying without ground truth" in err
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["simulate", TEDUSAR, "--all-single-faults", "--json"],
+        ["analyze", TEDUSAR, "--json"],
+        ["place", TEDUSAR, "--json"],
+        ["diagnose", TEDUSAR, "--obs", "not ok(pose)", "--json"],
+    ],
+)
+def test_json_is_one_line_and_pretty_indents_it(
+    argv: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, out, _ = _run(argv, capsys)
+    assert code == 0 and len(out.strip().splitlines()) == 1
+    code, pretty, _ = _run([*argv, "--pretty"], capsys)
+    assert code == 0 and pretty.startswith("{\n  ")
+    assert json.loads(pretty) == json.loads(out)

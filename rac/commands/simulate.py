@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import json
 from typing import Any
 
 from rac.analysis.modes import MODES
-from rac.commands.common import add_command
+from rac.commands.common import add_command, json_text
 from rac.commands.diagnose import add_with_good_option, card, require_json_for_good, to_json
 from rac.diagnosis import Simulation, all_single_faults, ambiguity_groups, load_theory, simulate
 
@@ -143,11 +142,11 @@ def run(args: argparse.Namespace) -> int:
                 ],
                 "ambiguity_groups": [list(g) for g in groups],
             }
-            print(json.dumps(doc, indent=2))
+            print(json_text(doc, args))
         else:
             print(table_report(sims, groups, args.mode))
         return 0
     sim = simulate(theory, args.fault, args.max_card, args.mode)
-    text = json.dumps(single_json(sim, args.with_good), indent=2) if args.json else None
+    text = json_text(single_json(sim, args.with_good), args) if args.json else None
     print(text or single_report(sim))
     return 0

@@ -193,7 +193,7 @@ def render(ev: Evaluation, markdown: bool) -> str:
     return "\n".join(parts) + "\n"
 
 
-def to_json(ev: Evaluation) -> str:
+def to_json(ev: Evaluation, pretty: bool = False) -> str:
     doc = {
         "grace_s": ev.grace,
         "runs": [
@@ -215,7 +215,7 @@ def to_json(ev: Evaluation) -> str:
         "models": [_model_json(m, ev) for m in ev.results],
         "comparison": comparison(ev),
     }
-    return json.dumps(doc, indent=2) + "\n"
+    return json.dumps(doc, indent=2 if pretty else None) + "\n"
 
 
 def _model_json(m: ModelResult, ev: Evaluation) -> dict[str, Any]:
