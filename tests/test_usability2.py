@@ -216,3 +216,22 @@ def test_json_is_one_line_and_pretty_indents_it(
     code, pretty, _ = _run([*argv, "--pretty"], capsys)
     assert code == 0 and pretty.startswith("{\n  ")
     assert json.loads(pretty) == json.loads(out)
+
+
+def test_simulate_explains_a_fault_not_isolated_without_an_ambiguity_group() -> None:
+    from rac.commands.simulate import table_report
+    from rac.diagnosis import DiagnosisResult, Simulation, ambiguity_groups
+
+    comps = ("lidar", "lidar_driver", "mapper")
+    alone = DiagnosisResult(False, (), (("lidar_driver",), ("lidar", "mapper")), comps, False)
+    isolated = DiagnosisResult(False, (), (("mapper",),), comps, False)
+    sims = [
+        Simulation(("lidar_driver",), (), alone, "output"),
+        Simulation(("mapper",), (), isolated, "output"),
+    ]
+    groups = ambiguity_groups(sims)
+    text = table_report(sims, groups, "output")
+    assert groups == () and "none among the detected faults" not in text
+    assert (
+        "not isolated: lidar_driver: its symptoms are explained as well by {lidar, mapper}" in text
+    )

@@ -107,10 +107,21 @@ def table_report(
     if groups:
         lines.append("ambiguity groups (the model cannot tell these components apart):")
         lines.extend(f"  {{{', '.join(g)}}}" for g in groups)
-    elif detected == len(sims):
+    elif detected == len(sims) == isolated:
         lines.append("ambiguity groups: none, every single fault is told apart from the others")
     else:
-        lines.append("ambiguity groups: none among the detected faults")
+        lines.append("ambiguity groups: none (no two single faults share their symptoms)")
+    # A detected fault that is not isolated without a group: its other candidates are not
+    # single faults of this mode (several components together, or hardware in output mode).
+    grouped = {c for g in groups for c in g}
+    alone = [s for s in sims if s.detected and not s.isolated and s.faults[0] not in grouped]
+    for s in alone:
+        others = [d for d in s.result.diagnoses if d != s.faults]
+        shown = " | ".join("{" + ", ".join(d) + "}" for d in others[:4])
+        more = f" and {len(others) - 4} more" if len(others) > 4 else ""
+        lines.append(
+            f"not isolated: {s.faults[0]}: its symptoms are explained as well by {shown}{more}"
+        )
     if any(s.result.bounded for s in sims):
         lines.append("note: the search was bounded by --max-card; the counts may be incomplete")
     undetected = [s.faults[0] for s in sims if not s.detected]
