@@ -66,16 +66,18 @@ def _observer_table(ev: Evaluation, markdown: bool) -> str:
 
 def _outcome_table(ev: Evaluation, markdown: bool) -> str:
     kinds = ev.kinds
-    headers = ["", "fault", "target", *(m.candidate.label for m in ev.results)]
+    # "ideal": what a perfect model scores (every injected fault CR, no FN or FP); the
+    # dissertation's "target" column, renamed since a fault's target is its topic or node.
+    headers = ["", "fault", "ideal", *(m.candidate.label for m in ev.results)]
     rows: list[list[object]] = []
     for what in ("CR", "FN", "FP"):
         for kind in kinds:
             if what != "FP" and kind == "none":
                 continue
-            target = (
+            ideal = (
                 sum(1 for r in ev.runs for f in r.faults if f.kind == kind) if what == "CR" else 0
             )
-            rows.append([what, kind, target, *(m.count(what, kind) for m in ev.results)])
+            rows.append([what, kind, ideal, *(m.count(what, kind) for m in ev.results)])
         total = [r for r in rows if r[0] == what]
         rows.append(
             [
