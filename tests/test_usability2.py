@@ -235,3 +235,16 @@ def test_simulate_explains_a_fault_not_isolated_without_an_ambiguity_group() -> 
     assert (
         "not isolated: lidar_driver: its symptoms are explained as well by {lidar, mapper}" in text
     )
+
+
+def test_replay_says_why_it_replays_fewer_messages_than_recorded(
+    crash_run: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from rosbags.highlevel import AnyReader
+
+    with AnyReader([crash_run]) as reader:
+        recorded = reader.message_count
+    crash_run.with_name("run.faults.yaml").unlink(missing_ok=True)
+    code, out, err = _run(["replay", TEDUSAR, str(crash_run)], capsys)
+    assert code == 0, err
+    assert f"the observers read (of {recorded:,} recorded)" in out
