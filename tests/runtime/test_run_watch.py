@@ -105,3 +105,20 @@ def test_the_fast_dds_profile_reaches_fast_dds_under_the_name_it_reads() -> None
     env = {PROFILES_V2: "/p.xml"}
     align_fastdds_profiles(env, None)  # unknown: left as the user set it
     assert env == {PROFILES_V2: "/p.xml"}
+
+
+def test_racc_run_says_when_the_robots_nodes_cannot_be_restarted(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from rac.ros2.run import restart_problems
+
+    robot = tmp_path / "robot.launch.xml"
+    robot.write_text('<launch>\n  <node pkg="my_robot" exec="driver" name="driver"/>\n</launch>\n')
+    monkeypatch.setenv("AMENT_PREFIX_PATH", str(tmp_path / "nowhere"))
+    (problem,) = restart_problems(str(robot))
+    assert "'my_robot'" in problem and "AMENT_PREFIX_PATH" in problem
+    index = tmp_path / "prefix" / "share" / "ament_index" / "resource_index" / "packages"
+    index.mkdir(parents=True)
+    (index / "my_robot").write_text("")
+    monkeypatch.setenv("AMENT_PREFIX_PATH", str(tmp_path / "prefix"))
+    assert restart_problems(str(robot)) == []
