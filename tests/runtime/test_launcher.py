@@ -122,3 +122,24 @@ def test_racc_run_says_when_the_robots_nodes_cannot_be_restarted(
     (index / "my_robot").write_text("")
     monkeypatch.setenv("AMENT_PREFIX_PATH", str(tmp_path / "prefix"))
     assert restart_problems(str(robot)) == []
+
+
+@pytest.mark.parametrize("ros", [1, 2])
+def test_a_node_stopped_while_it_starts_ends_without_a_traceback(ros: int) -> None:
+    """racc run (and the repair engine) may stop a node that is still importing racc: that
+    is a clean end, not a KeyboardInterrupt traceback (there were eight at a demo's end)."""
+    import signal
+    import time
+
+    from rac.runtime.launcher import racc_command
+
+    command = racc_command(ros, "engine")
+    assert command is not None
+    proc = subprocess.Popen(
+        [*command, "--help"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True
+    )
+    time.sleep(0.15)  # the interpreter is up, racc's imports are under way
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=30)
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err
+    assert proc.returncode in (0, -signal.SIGINT)
