@@ -94,6 +94,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
         module.register(sub)
     for command in sub.choices.values():
         _add_quiet(command)
+        _add_pretty(command)
     return parser
 
 
@@ -103,6 +104,24 @@ def _command_of(argv: Sequence[str]) -> str | None:
         if not arg.startswith("-"):
             return arg if arg in COMMANDS else None
     return None
+
+
+def _add_pretty(command: argparse.ArgumentParser) -> None:
+    """``--pretty`` beside every ``--json`` that prints a report: ``--json`` is one line,
+    ``--json --pretty`` indented (``racc export --json`` writes the ram/1 file format)."""
+    if command.prog.endswith(" export"):
+        return
+    for action in command._actions:
+        if isinstance(action, argparse._SubParsersAction):  # racc board status --json
+            for child in action.choices.values():
+                _add_pretty(child)
+    options = {o for action in command._actions for o in action.option_strings}
+    if "--json" in options and "--pretty" not in options:
+        command.add_argument(
+            "--pretty",
+            action="store_true",
+            help="with --json: indent the JSON (default: one line)",
+        )
 
 
 def _add_quiet(command: argparse.ArgumentParser) -> None:

@@ -78,6 +78,8 @@ def test_given_models_and_the_text_report(
     assert "### Observers per model (Table 10.1)" in text
     assert "| pioneer | - | - | 3 | 3 | 7 | 7 | 7 | 2 |" in text
     assert "McNemar's exact test" in text
+    # Table 10.2's count a perfect model scores is 'ideal', not 'target' (a fault's topic)
+    assert "|  | fault | ideal | pioneer | tedusar |" in text
 
 
 def test_evaluate_needs_ground_truth(

@@ -3,6 +3,7 @@ The live points (racc run, racc watch, the demo) are in tests/ros1 and tests/ros
 
 from __future__ import annotations
 
+import json
 import shlex
 from pathlib import Path
 
@@ -196,3 +197,54 @@ def test_replay_goes_on_without_an_unusable_faults_file(
     assert code == 0, err
     assert "episode 1" in out  # replayed, unscored
     assert "not a usable faults file (RAC085" in err and "replaying without ground truth" in err
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["simulate", TEDUSAR, "--all-single-faults", "--json"],
+        ["analyze", TEDUSAR, "--json"],
+        ["place", TEDUSAR, "--json"],
+        ["diagnose", TEDUSAR, "--obs", "not ok(pose)", "--json"],
+    ],
+)
+def test_json_is_one_line_and_pretty_indents_it(
+    argv: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, out, _ = _run(argv, capsys)
+    assert code == 0 and len(out.strip().splitlines()) == 1
+    code, pretty, _ = _run([*argv, "--pretty"], capsys)
+    assert code == 0 and pretty.startswith("{\n  ")
+    assert json.loads(pretty) == json.loads(out)
+
+
+def test_simulate_explains_a_fault_not_isolated_without_an_ambiguity_group() -> None:
+    from rac.commands.simulate import table_report
+    from rac.diagnosis import DiagnosisResult, Simulation, ambiguity_groups
+
+    comps = ("lidar", "lidar_driver", "mapper")
+    alone = DiagnosisResult(False, (), (("lidar_driver",), ("lidar", "mapper")), comps, False)
+    isolated = DiagnosisResult(False, (), (("mapper",),), comps, False)
+    sims = [
+        Simulation(("lidar_driver",), (), alone, "output"),
+        Simulation(("mapper",), (), isolated, "output"),
+    ]
+    groups = ambiguity_groups(sims)
+    text = table_report(sims, groups, "output")
+    assert groups == () and "none among the detected faults" not in text
+    assert (
+        "not isolated: lidar_driver: its symptoms are explained as well by {lidar, mapper}" in text
+    )
+
+
+def test_replay_says_why_it_replays_fewer_messages_than_recorded(
+    crash_run: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from rosbags.highlevel import AnyReader
+
+    with AnyReader([crash_run]) as reader:
+        recorded = reader.message_count
+    crash_run.with_name("run.faults.yaml").unlink(missing_ok=True)
+    code, out, err = _run(["replay", TEDUSAR, str(crash_run)], capsys)
+    assert code == 0, err
+    assert f"the observers read (of {recorded:,} recorded)" in out

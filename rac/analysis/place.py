@@ -447,8 +447,11 @@ def patch_model(
     cands: Sequence[Candidate],
     chosen: Sequence[int],
     notes: Mapping[int, tuple[str, ...]] | None = None,
+    measured_rates_only: bool = False,
 ) -> Model:
-    """The model with the chosen observers added (``notes``: comments to put above each)."""
+    """The model with the chosen observers added (``notes``: comments to put above each);
+    ``measured_rates_only``: a new GObs without a learned rate gets none (the patch a user
+    reads), else a placeholder rate (the model the analysis counts)."""
     notes = notes or {}
     topics = list(model.topics)
     nodes = list(model.nodes)
@@ -460,8 +463,13 @@ def patch_model(
         cand = cands[j]
         comment = notes.get(j, ())
         if cand.kind == "GObs":
+            # The analysis counts the GObs with a placeholder rate; the patch written for
+            # the user has no made-up rate: on an on-demand topic (a joystick, /cmd_vel) it
+            # would make the GObs report false faults, so annotate says to measure it.
             k = by_topic[cand.key]
-            rate = cand.value if cand.value is not None else PLACEHOLDER_RATE_HZ
+            rate = cand.value
+            if rate is None and not measured_rates_only:
+                rate = PLACEHOLDER_RATE_HZ
             topics[k] = dataclasses.replace(
                 topics[k], rate_hz=rate, comments=(*topics[k].comments, *comment)
             )
@@ -521,7 +529,14 @@ def annotate(
         what = "; ".join(met[:4]) + ("; …" if len(met) > 4 else "")
         line = f"racc place ({mode}): {cands[j].name} {what or 'adds an observation'}"
         extra: tuple[str, ...] = ()
-        if not cands[j].learned and cands[j].kind in ("GObs", "PObs"):
+        if not cands[j].learned and cands[j].kind == "GObs":
+            topic = cands[j].key
+            extra = (
+                f"racc place: no rate written: if {topic} is periodic, measure its rate "
+                "(racc record, then racc learn) and add '@ RATE Hz'; an on-demand topic "
+                "must have none (its frequency observer would report false faults)",
+            )
+        elif not cands[j].learned and cands[j].kind == "PObs":
             extra = ("racc place: the value is a placeholder; measure it (racc learn)",)
         notes[j] = (line, *extra)
     return notes
@@ -585,7 +600,7 @@ def place(
     if patch_model(model, cands, sorted(chosen)) != patched:  # chosen again after the check
         after = analyze(_theory_of(patch_model(model, cands, sorted(chosen))), mode)
     notes = annotate(cands, sorted(chosen), all_reqs, mode)
-    patched = patch_model(model, cands, sorted(chosen), notes)
+    patched = patch_model(model, cands, sorted(chosen), notes, measured_rates_only=True)
     cost = sum(weights[j] for j in chosen)
     return Placement(
         mode,

@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import json
 from typing import Any
 
 from rac.analysis.analyze import Analysis, analyze, flow_graph
 from rac.analysis.modes import MODES
-from rac.commands.common import add_command, count
+from rac.commands.common import add_command, count, json_text
 from rac.diagnosis import load_theory
 from rac.ir import Model
 from rac.targets.dot import quote
@@ -158,9 +157,7 @@ def dot_report(model: Model, a: Analysis) -> str:
 def run(args: argparse.Namespace) -> int:
     results = analyses(args.model, args.mode, args.double)
     if args.json:
-        print(
-            json.dumps({"model": args.model, "analyses": [to_json(a) for a in results]}, indent=2)
-        )
+        print(json_text({"model": args.model, "analyses": [to_json(a) for a in results]}, args))
     elif args.dot:
         model = load_theory(args.model).model
         if model is None:

@@ -23,7 +23,7 @@ from rac.board.execute import (
 from rac.board.protocol import Measurements
 from rac.board.scenario import device_shutdown_on_board
 from rac.board.scenario import render as render_scenario
-from rac.commands.common import add_command, count, load_checked
+from rac.commands.common import add_command, count, json_text, load_checked
 from rac.diagnosis import load_theory
 from rac.errors import Diagnostic, RacError, did_you_mean
 from rac.repair import NoRepairPlan, robot_name
@@ -125,7 +125,7 @@ def table(channels: ChannelMap, msr: Measurements) -> str:
     return "\n".join(lines)
 
 
-def as_json(channels: ChannelMap, msr: Measurements) -> str:
+def as_json(channels: ChannelMap, msr: Measurements, pretty: bool = False) -> str:
     rows = [
         {
             "channel": n,
@@ -136,7 +136,8 @@ def as_json(channels: ChannelMap, msr: Measurements) -> str:
         }
         for n, r in enumerate(msr.channels, start=1)
     ]
-    return json.dumps({"channels": rows, "observations": list(hobs_literals(channels, msr))})
+    doc = {"channels": rows, "observations": list(hobs_literals(channels, msr))}
+    return json.dumps(doc, indent=2 if pretty else None)
 
 
 async def status(args: argparse.Namespace, channels: ChannelMap) -> int:
@@ -145,7 +146,7 @@ async def status(args: argparse.Namespace, channels: ChannelMap) -> int:
         check_fits(channels, board.channel_count)
         msr = await board.measure()
     if args.json:
-        print(as_json(channels, msr))
+        print(as_json(channels, msr, args.pretty))
     else:
         print(table(channels, msr))
         literals = hobs_literals(channels, msr)
@@ -273,7 +274,7 @@ def execute_repair(args: argparse.Namespace, plan: Sequence[Sequence[str]]) -> i
         steps, channels, address, node_commands=templates, suggest=suggested_commands(args.ros)
     )
     if args.json:
-        print(json.dumps(reports_json(reports)))
+        print(json_text(reports_json(reports), args))
     else:
         done = sum(r.executed for r in reports)
         print(f"executed {done} of {count(len(reports), 'step')}:")
@@ -319,5 +320,5 @@ def run_board_scenario(args: argparse.Namespace) -> int:
     except NoRepairPlan as err:
         print(err.render(), file=sys.stderr)
         return 3
-    print(json.dumps(result.to_json()) if args.json else render_scenario(result))
+    print(json_text(result.to_json(), args) if args.json else render_scenario(result))
     return 0

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import errno
+import json
 import os
 import shutil
 import sys
@@ -373,6 +374,12 @@ def write_file_atomically(path: Path, content: str | bytes) -> None:
         # The reason only: the error's own file name is the temp file, which the user never named.
         why = err.strerror or str(err)
         raise RacError([Diagnostic("RAC004", f"{path}: cannot write: {why}")]) from None
+
+
+def json_text(doc: Any, args: argparse.Namespace) -> str:
+    """A command's ``--json`` output: one line, or indented with ``--pretty`` (the shapes are
+    docs/spec.md's; whitespace is not part of them)."""
+    return json.dumps(doc, indent=2 if getattr(args, "pretty", False) else None)
 
 
 def add_ros_option(parser: argparse.ArgumentParser) -> None:

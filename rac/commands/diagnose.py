@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from collections.abc import Sequence
 from typing import Any
 
-from rac.commands.common import CommandParser, add_command, run_values
+from rac.commands.common import CommandParser, add_command, json_text, run_values
 from rac.diagnosis import DiagnosisResult, Literal, Theory, collect, compile_theory, load_theory
 from rac.diagnosis.result import diagnose_ids
 from rac.diagnosis.theory import known_lookup, literal_at, parse_observations, plain_lines
@@ -227,7 +226,7 @@ def _diagnose(args: argparse.Namespace) -> int:
     for note in notes(result, args.max_card):
         print(note, file=sys.stderr)
     if args.json:
-        print(json.dumps(to_json(result, args.with_good)))
+        print(json_text(to_json(result, args.with_good), args))
     else:
         print(table(result, len(theta)))
     return 0

@@ -156,7 +156,7 @@ def run(args: argparse.Namespace) -> int:
         what = f"{len(candidates)} models over {len(runs)} runs on {cores} processes"
         print(f"replaying {what} …", file=sys.stderr, flush=True)
     result = evaluate(candidates, runs, options, args.grace, jobs)
-    text = to_json(result) if args.json else render(result, markdown=args.markdown)
+    text = to_json(result, args.pretty) if args.json else render(result, markdown=args.markdown)
     if args.output:
         write_file_atomically(Path(args.output), text)
     if not args.quiet:

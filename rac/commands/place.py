@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import difflib
-import json
 import math
 import sys
 from pathlib import Path
@@ -14,7 +13,7 @@ import yaml
 
 from rac.analysis.modes import MODES
 from rac.analysis.place import Placement, place
-from rac.commands.common import add_command, write_file_atomically
+from rac.commands.common import add_command, json_text, write_file_atomically
 from rac.diagnosis import load_theory
 from rac.errors import Diagnostic, RacError
 from rac.fmt import format_model
@@ -143,6 +142,16 @@ def summary(p: Placement) -> str:
         f"before: detectable {b.detectable}/{len(b.faults)}, isolable {b.isolable}/{len(b.faults)}"
         f"; after: detectable {a.detectable}/{len(a.faults)}, isolable {a.isolable}/{len(a.faults)}"
     )
+    unmeasured = [
+        p.candidates[j].key
+        for j in p.chosen
+        if p.candidates[j].kind == "GObs" and not p.candidates[j].learned
+    ]
+    if unmeasured:
+        lines.append(
+            f"rates to measure (racc record, racc learn): {', '.join(unmeasured)}; the patch "
+            "writes none, 'after' counts them as periodic"
+        )
     for r in p.unresolvable:
         lines.append(f"no candidate observer {r.describe()}")
     return "\n".join(lines)
@@ -179,7 +188,7 @@ def run(args: argparse.Namespace) -> int:
             "faults": len(placement.after.faults),
             "patch": text,
         }
-        print(json.dumps(doc, indent=2))
+        print(json_text(doc, args))
         return 0
     print(summary(placement), file=sys.stderr)
     if args.output:

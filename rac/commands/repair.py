@@ -7,13 +7,12 @@ that executes the plan can reuse ``compute``.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
 
 from rac.commands.board import add_execute_options, execute_repair
-from rac.commands.common import add_command, write_file_atomically
+from rac.commands.common import add_command, json_text, write_file_atomically
 from rac.commands.diagnose import add_observation_options, card, notes, observations
 from rac.diagnosis import diagnose, load_theory
 from rac.repair import (
@@ -194,7 +193,7 @@ def run(args: argparse.Namespace) -> int:
         print(err.render(), file=sys.stderr)
         return EXIT_NO_PLAN
     if args.json:
-        print(json.dumps(validated_json(result.to_json(), args, result.plan)))
+        print(json_text(validated_json(result.to_json(), args, result.plan), args))
     else:
         print(report(result))
         if args.validate and result.plan:

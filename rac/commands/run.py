@@ -112,16 +112,19 @@ def run(args: argparse.Namespace) -> int:
     arguments = parse_assignments(path, declared, given)
     if ros == 2:
         from rac.ros2.common import require_rclpy
-        from rac.ros2.run import load_processes
+        from rac.ros2.run import load_processes, restart_problems
 
         require_rclpy()
     else:
-        from rac.ros1.run import load_processes
+        from rac.ros1.run import load_processes, restart_problems
     processes = load_processes(path, arguments)
     supervisor = Supervisor(quiet=args.quiet)
     stop_on_signals(supervisor)
     shown = " ".join(f"{k}:={v}" for k, v in arguments.items())
     supervisor.say(f"{path} (ROS {ros}) {shown}".rstrip())
+    robot_launch = arguments.get("robot_launch")
+    for problem in restart_problems(robot_launch) if robot_launch else ():
+        supervisor.say(f"warning: {problem}")
     code = 0
     try:
         for node in processes:

@@ -6,12 +6,11 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from typing import Any
 
 from rac.commands.board import add_scenario_options, run_board_scenario
-from rac.commands.common import add_command, count
+from rac.commands.common import add_command, count, json_text
 from rac.commands.repair import (
     EXIT_NO_PLAN,
     VALIDATED,
@@ -103,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
         print(err.render(), file=sys.stderr)
         return EXIT_NO_PLAN
     if args.json:
-        print(json.dumps(validated_json(result.to_json(), args, result.repair.plan)))
+        print(json_text(validated_json(result.to_json(), args, result.repair.plan), args))
     else:
         print(report(result))
         if args.validate and result.repair.plan:

@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import json
 from typing import Any
 
 from rac.analysis.modes import MODES
-from rac.commands.common import add_command
+from rac.commands.common import add_command, json_text
 from rac.commands.diagnose import add_with_good_option, card, require_json_for_good, to_json
 from rac.diagnosis import Simulation, all_single_faults, ambiguity_groups, load_theory, simulate
 
@@ -108,10 +107,21 @@ def table_report(
     if groups:
         lines.append("ambiguity groups (the model cannot tell these components apart):")
         lines.extend(f"  {{{', '.join(g)}}}" for g in groups)
-    elif detected == len(sims):
+    elif detected == len(sims) == isolated:
         lines.append("ambiguity groups: none, every single fault is told apart from the others")
     else:
-        lines.append("ambiguity groups: none among the detected faults")
+        lines.append("ambiguity groups: none (no two single faults share their symptoms)")
+    # A detected fault that is not isolated without a group: its other candidates are not
+    # single faults of this mode (several components together, or hardware in output mode).
+    grouped = {c for g in groups for c in g}
+    alone = [s for s in sims if s.detected and not s.isolated and s.faults[0] not in grouped]
+    for s in alone:
+        others = [d for d in s.result.diagnoses if d != s.faults]
+        shown = " | ".join("{" + ", ".join(d) + "}" for d in others[:4])
+        more = f" and {len(others) - 4} more" if len(others) > 4 else ""
+        lines.append(
+            f"not isolated: {s.faults[0]}: its symptoms are explained as well by {shown}{more}"
+        )
     if any(s.result.bounded for s in sims):
         lines.append("note: the search was bounded by --max-card; the counts may be incomplete")
     undetected = [s.faults[0] for s in sims if not s.detected]
@@ -143,11 +153,11 @@ def run(args: argparse.Namespace) -> int:
                 ],
                 "ambiguity_groups": [list(g) for g in groups],
             }
-            print(json.dumps(doc, indent=2))
+            print(json_text(doc, args))
         else:
             print(table_report(sims, groups, args.mode))
         return 0
     sim = simulate(theory, args.fault, args.max_card, args.mode)
-    text = json.dumps(single_json(sim, args.with_good), indent=2) if args.json else None
+    text = json_text(single_json(sim, args.with_good), args) if args.json else None
     print(text or single_report(sim))
     return 0

@@ -66,16 +66,18 @@ def _observer_table(ev: Evaluation, markdown: bool) -> str:
 
 def _outcome_table(ev: Evaluation, markdown: bool) -> str:
     kinds = ev.kinds
-    headers = ["", "fault", "target", *(m.candidate.label for m in ev.results)]
+    # "ideal": what a perfect model scores (every injected fault CR, no FN or FP); the
+    # dissertation's "target" column, renamed since a fault's target is its topic or node.
+    headers = ["", "fault", "ideal", *(m.candidate.label for m in ev.results)]
     rows: list[list[object]] = []
     for what in ("CR", "FN", "FP"):
         for kind in kinds:
             if what != "FP" and kind == "none":
                 continue
-            target = (
+            ideal = (
                 sum(1 for r in ev.runs for f in r.faults if f.kind == kind) if what == "CR" else 0
             )
-            rows.append([what, kind, target, *(m.count(what, kind) for m in ev.results)])
+            rows.append([what, kind, ideal, *(m.count(what, kind) for m in ev.results)])
         total = [r for r in rows if r[0] == what]
         rows.append(
             [
@@ -193,7 +195,7 @@ def render(ev: Evaluation, markdown: bool) -> str:
     return "\n".join(parts) + "\n"
 
 
-def to_json(ev: Evaluation) -> str:
+def to_json(ev: Evaluation, pretty: bool = False) -> str:
     doc = {
         "grace_s": ev.grace,
         "runs": [
@@ -215,7 +217,7 @@ def to_json(ev: Evaluation) -> str:
         "models": [_model_json(m, ev) for m in ev.results],
         "comparison": comparison(ev),
     }
-    return json.dumps(doc, indent=2) + "\n"
+    return json.dumps(doc, indent=2 if pretty else None) + "\n"
 
 
 def _model_json(m: ModelResult, ev: Evaluation) -> dict[str, Any]:

@@ -86,6 +86,8 @@ def load_runs(runs: Sequence[str], properties: Sequence[str | None], needs: Need
         events=tuple(events),
         messages=sum(p.messages for p in parts),
         notes=tuple(n for p in parts for n in p.notes),
+        recorded=sum(p.recorded for p in parts) if all(p.recorded for p in parts) else 0,
+        topics=max((p.topics for p in parts), default=0),
     )
 
 

@@ -80,6 +80,8 @@ class RunInputs:
     events: tuple[Event, ...]  # in time order, times from the start
     messages: int  # topic messages among the events
     notes: tuple[str, ...]
+    recorded: int = 0  # every message the recording holds, read or not (0: unknown)
+    topics: int = 0  # the topics the observers read that the recording has
 
 
 def properties_beside(run: str | Path) -> Path:
@@ -134,7 +136,21 @@ def load_run(path: str, needs: Needs, properties: str | None) -> RunInputs:
     first = min((e.t for e in events), default=0.0)
     if duration - first > MAX_SPAN_S:  # the topics are bounded already: a /diagnostics stamp
         raise far_off_stamp(path, duration - first)
-    return RunInputs(path, run.start, duration, tuple(events), messages, tuple(notes))
+    recorded = _message_count(path)
+    return RunInputs(
+        path, run.start, duration, tuple(events), messages, tuple(notes), recorded, len(run.topics)
+    )
+
+
+def _message_count(path: str) -> int:
+    """Every message of the recording (its index says; 0 when it cannot be told)."""
+    from rosbags.highlevel import AnyReader
+
+    try:
+        with AnyReader([Path(path)]) as reader:
+            return int(reader.message_count)
+    except Exception:  # the recording was read already: a count is only for the summary
+        return 0
 
 
 def _absent_topics(path: str, run: Run, needs: Needs) -> Iterator[str]:

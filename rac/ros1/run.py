@@ -77,3 +77,26 @@ def _executable(package: str, node_type: str) -> str:
             ]
         )
     return str(found[0])
+
+
+def restart_problems(robot_launch: str) -> list[str]:
+    """Why the repair engine could not restart nodes of ``robot_launch``: packages its
+    ``<node>`` entries name that are not on ROS_PACKAGE_PATH (said before they are needed)."""
+    import roslaunch.config
+    import rospkg
+
+    try:
+        config = roslaunch.config.load_config_default([robot_launch], None, verbose=False)
+    except Exception as err:  # roslaunch raises many kinds for a bad file
+        return [f"{robot_launch}: roslaunch cannot load it: {err}"]
+    problems = []
+    packs = rospkg.RosPack()
+    for package in sorted({n.package for n in config.nodes}):
+        try:
+            packs.get_path(package)
+        except rospkg.ResourceNotFound:
+            problems.append(
+                f"package '{package}' of {robot_launch} is not on ROS_PACKAGE_PATH: the repair "
+                "engine cannot restart its nodes (racc demo prints the export line for its own)"
+            )
+    return problems

@@ -62,7 +62,10 @@ def package_files(python: str | None = None) -> dict[str, str]:
             f"#!{interpreter}\n"
             f"# racc's ROS 2 node '{exe}', written by 'racc ros-package --ros 2'.\n"
             "import sys\n\n"
-            "from rac.ros2.entry import main\n\n"
+            "try:\n"
+            "    from rac.ros2.entry import main\n"
+            "except KeyboardInterrupt:  # stopped while starting: as clean an end as later\n"
+            "    sys.exit(0)\n\n"
             f"sys.exit(main({command!r}, sys.argv[1:]))\n"
         )
     return files

@@ -35,7 +35,15 @@ RACC_EXECUTABLES = {
 }
 # A racc node is run by this Python through the transport's entry point, as the executables
 # of the racc ROS packages run it: no package needs to be installed for ``racc run``.
-ENTRY = "import sys; from rac.ros{ros}.entry import main; sys.exit(main(sys.argv[1], sys.argv[2:]))"
+# Ctrl-C while it starts (importing takes seconds on a loaded machine) is a clean end too.
+ENTRY = (
+    "import sys\n"
+    "try:\n"
+    "    from rac.ros{ros}.entry import main\n"
+    "except KeyboardInterrupt:\n"
+    "    sys.exit(0)\n"
+    "sys.exit(main(sys.argv[1], sys.argv[2:]))\n"
+)
 
 
 @dataclass(frozen=True, slots=True)

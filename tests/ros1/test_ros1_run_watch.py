@@ -126,6 +126,7 @@ def test_racc_run_and_watch_show_a_crash_repaired_and_stop_cleanly(
     for name, path in logs.items():
         assert "Traceback" not in path.read_text(errors="replace"), name
     assert "stopped 4 nodes (exit codes: racc_observer 0, racc_engine 0" in logs["run"].read_text()
+    assert logs["demo"].read_text().count(f"127.0.0.1:{board}") == 1  # the address once
     for pid in pids:
         assert not Path(f"/proc/{pid}").exists() or "Z" in Path(f"/proc/{pid}/stat").read_text()
 

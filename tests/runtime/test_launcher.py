@@ -105,3 +105,49 @@ def test_the_fast_dds_profile_reaches_fast_dds_under_the_name_it_reads() -> None
     env = {PROFILES_V2: "/p.xml"}
     align_fastdds_profiles(env, None)  # unknown: left as the user set it
     assert env == {PROFILES_V2: "/p.xml"}
+
+
+def test_racc_run_says_when_the_robots_nodes_cannot_be_restarted(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from rac.ros2.run import restart_problems
+
+    robot = tmp_path / "robot.launch.xml"
+    robot.write_text('<launch>\n  <node pkg="my_robot" exec="driver" name="driver"/>\n</launch>\n')
+    monkeypatch.setenv("AMENT_PREFIX_PATH", str(tmp_path / "nowhere"))
+    (problem,) = restart_problems(str(robot))
+    assert "'my_robot'" in problem and "AMENT_PREFIX_PATH" in problem
+    index = tmp_path / "prefix" / "share" / "ament_index" / "resource_index" / "packages"
+    index.mkdir(parents=True)
+    (index / "my_robot").write_text("")
+    monkeypatch.setenv("AMENT_PREFIX_PATH", str(tmp_path / "prefix"))
+    assert restart_problems(str(robot)) == []
+
+
+@pytest.mark.parametrize("ros", [1, 2])
+def test_a_node_stopped_while_it_starts_ends_without_a_traceback(ros: int, tmp_path: Path) -> None:
+    """racc run (and the repair engine) may stop a node that is still importing racc: that
+    is a clean end, not a KeyboardInterrupt traceback (there were eight at a demo's end)."""
+    import os
+    import signal
+
+    from rac.runtime.launcher import racc_command
+
+    command = racc_command(ros, "engine")
+    assert command is not None
+    # A slow import inside racc's (psutil, which the entry's modules import): SIGINT there.
+    (tmp_path / "psutil.py").write_text(
+        "import sys, time\nprint('importing', file=sys.stderr, flush=True)\ntime.sleep(30)\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
+    proc = subprocess.Popen(
+        command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env
+    )
+    assert proc.stderr is not None
+    first = proc.stderr.readline()
+    assert first.strip() == "importing", first
+    proc.send_signal(signal.SIGINT)
+    err = proc.stderr.read()
+    proc.wait(30)
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err
+    assert proc.returncode == 0
