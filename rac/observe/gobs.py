@@ -30,8 +30,8 @@ Decisions where the text leaves room:
   over the window alone would end with a whole clump but without the gap after it, which
   makes a healthy topic read about one clump too fast in every check.
 - **The occurrence's time**: receive time, or the publisher's header stamp while stamps
-  are trusted (:class:`StampTrust`: present, strictly increasing, and running at the rate
-  of the arrivals over ``agree_s``).  The window is placed by receive time either way;
+  are trusted (:class:`StampTrust`: present, increasing but for a bag's loop, and running
+  at the rate of the arrivals over ``agree_s``).  The window is placed by receive time either way;
   only μ is taken from the stamps, so a receiver that was late and got the messages in a
   clump still sees the publisher's cadence.
 - **The bound** |μ − δ| ≤ σ is taken with a slack of :data:`RESOLUTION_S` (1 ns, the
