@@ -47,9 +47,12 @@ Decisions where the text leaves room:
   Each such verdict carries the instant it was counted at.  When an occurrence comes after
   a silence that has turned the verdict negative, the stale window is dropped and a new
   one starts at that occurrence (as line 2 does), so stale intervals never count as good
-  ones.  When it comes before (the silence was shorter than G + θ·δ + ``hold_s``), the
-  silence's violations are taken back and the window goes on: a delivery that paused and
-  resumed is judged by the mean, as a burst.
+  ones.  On a topic whose grace G is ``silence_s`` (faster than 1/(1.5·``silence_s``), 3 Hz
+  at the default), an occurrence that comes before the silence's not_ok was due (G + θ·δ
+  + ``hold_s``) takes the silence's violations back, and the window goes on with the gap in
+  it: a delivery that paused for a fraction of a second and resumed is judged by the mean,
+  as a burst.  A slower topic's silence is counted in intervals and stands (an irregular
+  topic's long gap is what its frequency observer is for).
 - **Hysteresis**: the θ rule gives a candidate verdict; it is reported only after it has
   stood for ``hold_s`` (:class:`rac.observe.base.Hold`).  At one check per message, θ
   alone is 50 ms at 100 Hz.
@@ -162,6 +165,9 @@ class GObs:
         self.needs = Needs(topics=((self.topic, ()),))
         self._half = self.window / 2
         self._grace = max(1.5 * self.delta, self.silence_s)
+        # A topic whose silence is timed in seconds rather than intervals (faster than
+        # 3 Hz at silence_s 0.5 s) has its short silences taken back (module docstring).
+        self._pauses = self.silence_s > 1.5 * self.delta
         self._mismatch = Mismatch(p.count("mismatch_th", DEFAULT_MISMATCH_THRESHOLD))
         self._hold = Hold(p.atom(), self.hold_s)
         # Stamps and receive times may disagree by half the band before the stamps lose.
@@ -189,9 +195,10 @@ class GObs:
         now = Occurrence(event.t, event.stamp if self.stamps else None, self._k)
         self._k += 1
         self._trust.add(now, measure=not self._in_doubt(now.t))
-        if self._stale and self._hold.positive:
-            # The silence ended before its not_ok was due (the hold): a hiccup, not a stop.
-            # Its violations go, and the window goes on with the gap in it.
+        if self._pauses and self._stale and self._hold.positive:
+            # The silence ended before its not_ok was due (the hold): a pause in delivery,
+            # not a stop.  Its violations go, and the window goes on with the gap, so that
+            # the messages that waited are judged with it, as a burst.
             self._mismatch.count = self._count_before_silence
             self._hold.since = None
             self._stale = False
