@@ -325,11 +325,16 @@ def main() -> None:
         metavar="S",
         help="also soak a model learned by racc record (S s) and racc learn (default 0: no)",
     )
+    parser.add_argument(
+        "--learn-loads",
+        help="the load levels of the learned model's soak (default: those of --loads)",
+    )
     parser.add_argument("-q", action="store_true", help="no progress lines (default: shown)")
     args = parser.parse_args()
     QUIET = args.q or not sys.stderr.isatty()
     loads = [int(x) for x in args.loads.split(",") if x]
     kinds = [k for k in args.faults.split(",") if k]
+    learn_loads = [int(x) for x in (args.learn_loads or args.loads).split(",") if x]
     # `timeout` and Ctrl-C end the run through the finally blocks: nothing stays running.
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(1))
     soaks: list[SoakFigures] = []
@@ -345,7 +350,7 @@ def main() -> None:
             faults(graph, kinds, args.repeats, args.settle, fault_figures)
             if args.learn:
                 graph.use_model(learn_model(graph, args.learn), "learned_build")
-                for load in loads:
+                for load in learn_loads:
                     soaks.append(soak(graph, "learned", load, args.seconds, args.settle))
     finally:
         report(soaks, fault_figures, sys.argv[1:])

@@ -308,3 +308,9 @@ def flips(watch: Watch, start: float, end: float) -> dict[str, int]:
                     counts[message] = counts.get(message, 0) + 1
                 last[atom] = level
     return counts
+
+
+def shown_plans(acted: list[LogRow], since: float) -> str:
+    """The plans among ``acted``, one per line, with their time from ``since``."""
+    lines = [f"    {t - since:6.1f} s  {msg}" for t, name, _, _, msg in acted if name == "plan"]
+    return f"{len(lines)} plans, {len(acted)} actions" + "".join("\n" + x for x in lines)

@@ -37,6 +37,7 @@ from soak_support import (  # noqa: E402
     flips,
     free_port,
     plans,
+    shown_plans,
 )
 
 TEDUSAR = ROOT / "models" / "tedusar.ram"
@@ -73,7 +74,7 @@ def test_demo_robot_soak_under_load_repairs_nothing(tmp_path: Path) -> None:
         acted = plans(graph.watch, launched, end)
         found = episodes(graph.watch, start, end)
         print(f"tedusar soak {SOAK_SECONDS:g} s at {SOAK_LOAD} % load, bring-up included:")
-        print(f"  repair actions: {len(acted)} {acted}")
+        print(f"  repair: {shown_plans(acted, launched)}")
         print(f"  diagnosis episodes: {len(found)} {[(round(t - start, 1), d) for t, d in found]}")
         print(f"  observations turned negative: {flips(graph.watch, start, end)}")
         assert not acted, "the repairer acted on the healthy demo robot"

@@ -8,7 +8,9 @@ relay killed with SIGKILL is diagnosed within 3 s and every observation is ok ag
 within 10 s (restarted from robot.launch); a bag player frozen with SIGSTOP is diagnosed
 within 3 s and restarted within 15 s.  The figures are printed (``-s``).
 
-Skipped where ROS 1 is not importable, a failure where RACC_REQUIRE_ROS=1 (.ci/run).
+The model is tests/ros1/real_graph.ram, or the one RACC_SOAK_MODEL names (a model of
+this graph learned by ``racc record`` and ``racc learn``; ``bench/soak.py --learn`` makes
+one).  Skipped where ROS 1 is not importable, a failure where RACC_REQUIRE_ROS=1 (.ci/run).
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ import subprocess
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
+from pathlib import Path
 
 import pytest
 
@@ -34,7 +37,7 @@ for tool in REQUIRED:
             raise RuntimeError(f"{tool} is not installed (.ci/run installs it)")
         pytest.skip(f"{tool} is not installed", allow_module_level=True)
 
-from real_graph import Graph, real_graph  # noqa: E402
+from real_graph import MODEL, Graph, real_graph  # noqa: E402
 from soak_support import (  # noqa: E402
     all_ok_since,
     cpu_load,
@@ -43,6 +46,7 @@ from soak_support import (  # noqa: E402
     logged_done,
     named_since,
     plans,
+    shown_plans,
 )
 
 SOAK_SECONDS = 90.0
@@ -61,7 +65,8 @@ class Running:
 @pytest.fixture(scope="module")
 def running(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Running]:
     """The robot and racc's runtime, launched at the same moment (bring-up)."""
-    with real_graph(tmp_path_factory.mktemp("real_graph")) as graph:
+    model = Path(os.environ.get("RACC_SOAK_MODEL") or MODEL)
+    with real_graph(tmp_path_factory.mktemp("real_graph"), model) as graph:
         launched = time.time()
         robot = graph.start_robot()
         runtime = graph.start_runtime()
@@ -74,7 +79,7 @@ def test_bring_up_repairs_nothing(running: Running) -> None:
     time.sleep(max(0.0, start + BRING_UP_SECONDS - time.time()))
     acted = plans(graph.watch, start, start + BRING_UP_SECONDS)
     print(f"\nbring-up: all ok after {ok - start:.2f} s" if ok else "\nbring-up: never all ok")
-    print(f"bring-up: repair actions in the first {BRING_UP_SECONDS:g} s: {acted}")
+    print(f"bring-up, first {BRING_UP_SECONDS:g} s: {shown_plans(acted, start)}")
     print(f"bring-up: observations turned negative: {flips(graph.watch, start, time.time())}")
     assert not acted, "the repairer acted during bring-up"
     assert ok is not None
@@ -91,7 +96,7 @@ def test_healthy_soak_under_load(running: Running) -> None:
     acted = plans(graph.watch, start, end)
     found = episodes(graph.watch, start, end)
     print(f"\nsoak {SOAK_SECONDS:g} s at {SOAK_LOAD} % load on both cores:")
-    print(f"  repair actions: {len(acted)} {acted}")
+    print(f"  repair: {shown_plans(acted, start)}")
     print(f"  diagnosis episodes: {len(found)} {[(round(t - start, 1), d) for t, d in found]}")
     print(f"  observations turned negative: {flips(graph.watch, start, end)}")
     assert not acted, "the repairer acted on a healthy graph"

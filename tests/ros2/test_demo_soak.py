@@ -38,6 +38,7 @@ from soak_support import (
     flips,
     free_port,
     plans,
+    shown_plans,
     start_watch,
 )
 
@@ -107,7 +108,7 @@ def test_demo_robot_soak_under_load_repairs_nothing_on_ros2(tmp_path: Path) -> N
         acted = plans(watch, launched, end)
         found = episodes(watch, start, end)
         print(f"tedusar soak {SOAK_SECONDS:g} s at {SOAK_LOAD} % load, bring-up included:")
-        print(f"  repair actions: {len(acted)} {acted}")
+        print(f"  repair: {shown_plans(acted, launched)}")
         print(f"  diagnosis episodes: {len(found)} {[(round(t - start, 1), d) for t, d in found]}")
         print(f"  observations turned negative: {flips(watch, start, end)}")
         assert not acted, "the repairer acted on the healthy demo robot"
