@@ -74,11 +74,14 @@ def model_without_interval(tmp: Path) -> Path:
     return model
 
 
-def test_demo_robot_soak_under_load_repairs_nothing_on_ros2(tmp_path: Path) -> None:
+def test_demo_robot_soak_under_load_repairs_nothing_on_ros2(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     from rac.loader import load_observers
     from rac.ros2.launch import command_line, load_launch
 
     env = ros2_env(tmp_path)
+    monkeypatch.setenv("AMENT_PREFIX_PATH", env["AMENT_PREFIX_PATH"])  # load_launch reads it
     run = [*RACC, "ros-package", "--ros", "2", "-o", str(tmp_path / "prefix"), "-q"]
     subprocess.run(run, check=True, env=env)
     model, build = model_without_interval(tmp_path), tmp_path / "build"
@@ -91,7 +94,9 @@ def test_demo_robot_soak_under_load_repairs_nothing_on_ros2(tmp_path: Path) -> N
         board, control = free_port(), free_port()
         demo_dir = tmp_path / "demo"
         ports = ["--board-port", str(board), "--control-port", str(control)]
-        procs.start([*RACC, "demo", "--ros", "2", str(model), "-o", str(demo_dir), *ports], "demo")
+        procs.start(
+            [*RACC, "demo", "--ros", "2", str(model), "-o", str(demo_dir), *ports], "demo.log"
+        )
         up = watch.wait(lambda: time.time() if watch.nodes >= DEMO_NODES else None, 60)
         assert up is not None, f"the demo's nodes did not come up: {sorted(watch.nodes)}"
         launched = time.time()
