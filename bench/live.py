@@ -65,7 +65,7 @@ def in_process(model_path: Path, seconds: float) -> tuple[float, float]:
     from rac.observe import NodeSample
     from rac.pipeline import compile_model
     from rac.runtime.demo import DemoNode
-    from rac.runtime.host import ObserverHost
+    from rac.runtime.host import HostLoop, ObserverHost
     from rac.runtime.procs import ProcessProbe
     from rac.runtime.values import Decoders
 
@@ -89,6 +89,7 @@ def in_process(model_path: Path, seconds: float) -> tuple[float, float]:
     # Messages are made ahead (the publisher's work is not the host's).
     made = {t.name: [d.message(t, epoch + k / t.rate_hz) for k in range(50)] for d, t in topics}
     probe = ProcessProbe(host.bank.nodes, lambda _n: os.getpid(), host.bank.properties)
+    loop = HostLoop(host, probe)
     me = psutil.Process()
     queue = [(epoch, i) for i in range(len(topics))]
     heapq.heapify(queue)
@@ -99,14 +100,12 @@ def in_process(model_path: Path, seconds: float) -> tuple[float, float]:
         while queue and queue[0][0] <= now:
             due, i = heapq.heappop(queue)
             _, t = topics[i]
-            host.message(t.name, readers[t.name].values(made[t.name][count % 50]))
+            raw, reader = made[t.name][count % 50], readers[t.name]
+            host.message(t.name, reader.values(raw), reader.stamp(raw))
             count += 1
             heapq.heappush(queue, (due + 1 / t.rate_hz, i))
         if now >= next_probe:
-            host.feed(probe.sample(host.clock()))
-            host.advance()
-            host.take_changes()
-            host.rows()
+            loop.step(now)
             next_probe += 0.1
         time.sleep(max(0.0, min(queue[0][0], next_probe) - time.time()))
     end_cpu, wall = me.cpu_times(), time.time() - start

@@ -6,7 +6,7 @@ import math
 from collections.abc import Iterable
 from typing import TypeVar
 
-from rac.observe.base import Observer, plain_node
+from rac.observe.base import Observer, TimingObserver, plain_node
 from rac.observe.build import build_all
 from rac.observe.events import (
     ChannelState,
@@ -57,6 +57,7 @@ class ObserverBank:
         self.properties = frozenset(self._properties)
         self.devices = frozenset(d for o in self.observers for d in o.needs.devices)
         self.needs_board = bool(self._channels)
+        self._timing = tuple(o for o in self.observers if isinstance(o, TimingObserver))
 
     def topic_fields(self) -> dict[str, frozenset[str]]:
         """Topic -> the fields some observer reads (empty: only the occurrence counts)."""
@@ -88,6 +89,16 @@ class ObserverBank:
             return out
         for obs in self.observers:
             out.extend(_ordered(obs.advance(t)))
+        return out
+
+    def starved(self, t: float, starved: bool) -> list[Verdict]:
+        """The process feeding the bank is (or is no longer) starved from ``t`` on: the
+        observers that judge time hold their negative verdicts (TimingObserver)."""
+        out: list[Verdict] = []
+        if not math.isfinite(t):
+            return out
+        for obs in self._timing:
+            out.extend(_ordered(obs.starved(t, starved)))
         return out
 
 

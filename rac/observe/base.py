@@ -10,13 +10,17 @@ clear, whatever the fault's length.  Any sequence that keeps the counter at or b
 gives the text's verdicts exactly.
 
 **Reporting**: an observer returns a verdict only when it changes; the first one counts as a
-change, and nothing is reported before the first check.
+change, and nothing is reported before the first check.  :class:`Hold` adds a pending time
+(Prometheus' ``for:``): a new verdict is reported only once it has stood for a while.
+
+**Starvation**: an observer that judges time (:class:`TimingObserver`) is told when the
+process feeding it was starved of CPU, so that late deliveries do not read as faults.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
 from rac.logic import Atom
 from rac.observe.events import Event, Verdict
@@ -67,6 +71,17 @@ class Mismatch:
         return self.count <= self.theta
 
 
+@runtime_checkable
+class TimingObserver(Protocol):
+    """An observer whose checks depend on when inputs arrive (GObs)."""
+
+    def starved(self, t: float, starved: bool) -> list[Verdict]:
+        """From ``t`` on, the process that times the inputs is (or is no longer) starved:
+        while it is, and until late arrivals have left the observer's window, timing
+        violations are not counted and no new negative verdict is reported."""
+        ...
+
+
 class Latch:
     """Remembers the last verdict of one atom and reports only changes."""
 
@@ -80,6 +95,39 @@ class Latch:
         if positive is not self.positive:
             self.positive = positive
             out.append(Verdict(t, self.atom, positive))
+
+
+class Hold:
+    """A :class:`Latch` whose verdict changes only after the new one has stood for
+    ``hold_s`` (hysteresis in time): a candidate that flips back before then is never
+    reported.  The first verdict is reported at once.  A negative candidate that is not
+    allowed to fall (``may_fall`` False: the observer's timing is in doubt) is not
+    pending at all; its hold starts when it may fall again."""
+
+    __slots__ = ("hold_s", "latch", "since")
+
+    def __init__(self, atom: Atom, hold_s: float) -> None:
+        self.latch = Latch(atom)
+        self.hold_s = hold_s
+        self.since: float | None = None  # when the pending candidate first stood
+
+    @property
+    def positive(self) -> bool | None:
+        return self.latch.positive
+
+    def update(self, t: float, positive: bool, out: list[Verdict], may_fall: bool = True) -> None:
+        current = self.latch.positive
+        if positive is current or (not positive and not may_fall):
+            self.since = None
+            return
+        if current is None:
+            self.latch.report(t, positive, out)
+            return
+        if self.since is None:
+            self.since = t
+        if t - self.since >= self.hold_s:
+            self.latch.report(self.since + self.hold_s, positive, out)
+            self.since = None
 
 
 def plain_node(name: str) -> str:

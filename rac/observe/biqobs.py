@@ -23,6 +23,10 @@ factor of two of the limit between the two.  Without that tolerance two healthy 
 that turn at a rate close to a limit flip between "increasing" and "constant"
 independently and read as a sustained mismatch; a real divergence (one side clearly rising
 while the other is clearly flat or falling) still counts under the θ rule.
+
+Slopes are taken over receive times, so a starved receiver's clumps bend them: while the
+process feeding the observer is starved (:meth:`BiQObs.starved`), and for 3ω after (a trend
+needs samples up to 3ω/2 on either side of its own), a mismatch is not counted; a match is.
 """
 
 from __future__ import annotations
@@ -55,6 +59,8 @@ class BiQObs:
         self._next = math.nan  # the next grid instant
         self._mismatch = Mismatch(p.count("mismatch_th", DEFAULT_MISMATCH_THRESHOLD))
         self._latch = Latch(p.atom())
+        self._starved = False
+        self._settled = -math.inf  # slopes are trusted again from here on
 
     def feed(self, event: Event) -> list[Verdict]:
         if not isinstance(event, Message):
@@ -80,10 +86,17 @@ class BiQObs:
                 break
             a, b = pair
             matched = a.admits(b.trend) or b.admits(a.trend)
-            self._latch.report(self._next, self._mismatch.check(matched), out)
+            if matched or not (self._starved or self._next < self._settled):
+                self._latch.report(self._next, self._mismatch.check(matched), out)
             checks += 1
             self._next += self._step
         return out
+
+    def starved(self, t: float, starved: bool) -> list[Verdict]:
+        if self._starved and not starved:
+            self._settled = t + 3 * self.ws
+        self._starved = starved
+        return []
 
     def _aligned(self) -> tuple[TrendAt, TrendAt] | None:
         """Both sides' trends at the same time: the later of the two is taken back to the

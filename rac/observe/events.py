@@ -21,11 +21,17 @@ class Message:
     ``twist.twist.angular.z``) to its value; only fields some observer asked for need be
     present.  A missing or non-finite value is "not available" and skipped by the observers
     that read values; the occurrence still counts for the topic's frequency.
+
+    ``t`` is when the message was received.  ``stamp`` is its ``header.stamp`` in seconds
+    when its type begins with a ``std_msgs/Header`` and the stamp is not zero (None
+    otherwise): the publisher's own time, on the publisher's clock.  Only differences of
+    stamps mean anything to an observer (a bag played back keeps stamps years old).
     """
 
     t: float
     topic: str
     values: Mapping[str, float]
+    stamp: float | None = None
 
 
 @dataclass(frozen=True, slots=True)

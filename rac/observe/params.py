@@ -67,6 +67,14 @@ class Params:
             )
         return value
 
+    def non_negative(self, key: str, default: float) -> float:
+        value = self.number(key, default)
+        if value < 0:
+            raise spec_error(
+                self.spec, f"parameter '{key}' must be zero or more, not {value}", "RAC051"
+            )
+        return value
+
     def count(self, key: str, default: int | None = None) -> int:
         value = self._get(key)
         if value is None:

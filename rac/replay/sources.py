@@ -4,7 +4,9 @@ The loading layer of replay: it reads files and turns them into the time-ordered
 the observer core takes, with times in seconds from the start of the recording.
 
 - Topic messages come from the bag through rosbags (ROS 1 ``.bag``, ROS 2 directories),
-  with the fields the observers need (derived ``yaw``/``pitch``/``roll`` included).
+  with the fields the observers need (derived ``yaw``/``pitch``/``roll`` included).  A
+  message's time is when the bag recorded it (its receive time); where its type begins with
+  a ``std_msgs/Header``, it carries the header stamp as well, as on a live robot.
 - ``/diagnostics`` statuses come from the bag when the model has diagnostic observers.
 - The properties CSV (``time,node,cpu,mem``, the file ``racc synth`` writes and ``racc
   learn`` reads) gives CPU and memory samples, and node liveness: the CSV is taken to
@@ -20,18 +22,25 @@ from __future__ import annotations
 import csv
 import io
 import math
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections import Counter
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from rosbags.highlevel import AnyReader
+from rosbags.interfaces import Connection
+from rosbags.rosbag1 import Reader as Reader1
+from rosbags.typesys import Stores, get_typestore
 
 from rac.errors import Diagnostic, RacError
 from rac.learn.fields import FieldSelector
 from rac.learn.recording import MAX_SPAN_S, Run, far_off_stamp, message_stream, read_run
+from rac.learn.stamps import stamp_reader
 from rac.loader import read_text
 from rac.observe.dobs import violations_first
-from rac.observe.events import DeviceStatus, Event, NodeSample, PropertySample
+from rac.observe.events import DeviceStatus, Event, Message, NodeSample, PropertySample
 
 DIAGNOSTICS_TOPIC = "/diagnostics"
 LIVENESS_SLACK = 1.5  # a node is running when it has a sample within this many periods
@@ -69,7 +78,7 @@ def load_run(path: str, needs: Needs, properties: str | None) -> RunInputs:
     """Every input a model's observers take from one recorded run."""
     run = _read_topics(path, needs)
     notes: list[str] = list(_missing_fields(path, run, needs))
-    events: list[Event] = list(message_stream(run.topics, run.start))
+    events: list[Event] = stamped(message_stream(run.topics, run.start), header_stamps(path, needs))
     messages = len(events)
     if needs.diagnostics:
         statuses = list(_diagnostics(path, run.start))
@@ -114,6 +123,66 @@ def _missing_fields(path: str, run: Run, needs: Needs) -> Iterator[str]:
                 f"{', '.join(missing)}: the observers of {'it' if len(missing) == 1 else 'them'} "
                 "stay silent"
             )
+
+
+def header_stamps(path: str, needs: Needs) -> dict[str, list[float | None]]:
+    """Topic -> the header stamps of its messages in the bag's order, for the model's topics
+    whose type begins with a header (:mod:`rac.learn.stamps`).  A bag whose stamps cannot be
+    read gives none: the observers then time its messages by when they were recorded."""
+    p = Path(path)
+    store = get_typestore(Stores.ROS2_HUMBLE if p.is_dir() else Stores.ROS1_NOETIC)
+    try:
+        with AnyReader([p], default_typestore=store) as reader:
+            fielddefs = reader.typestore.fielddefs
+            return _stamps(reader.connections, reader.messages, fielddefs, reader.is2, needs)
+    except Exception:  # read_run has vetted the file: an old roslib/Header, say
+        if p.is_dir():
+            return {}
+    try:  # old ROS 1 bags define roslib/Header: Noetic's definitions read them
+        with Reader1(p) as bag:
+            return _stamps(bag.connections, bag.messages, store.fielddefs, False, needs)
+    except Exception:  # stamps are an extra: without them messages keep their receive times
+        return {}
+
+
+def _stamps(
+    connections: Iterable[Connection],
+    messages: Callable[..., Iterator[tuple[Connection, int, bytes]]],
+    fielddefs: Mapping[str, Any],
+    cdr: bool,
+    needs: Needs,
+) -> dict[str, list[float | None]]:
+    readers = {}
+    for conn in connections:
+        if conn.topic in needs.topic_fields:
+            read = stamp_reader(fielddefs, conn.msgtype, cdr=cdr)
+            if read is not None:
+                readers[conn.id] = (conn.topic, read)
+    wanted = [c for c in connections if c.id in readers]
+    out: dict[str, list[float | None]] = {topic: [] for topic, _ in readers.values()}
+    for conn, _, raw in messages(connections=wanted) if wanted else ():
+        topic, read = readers[conn.id]
+        out[topic].append(read(raw))
+    return out
+
+
+def stamped(messages: list[Message], stamps: Mapping[str, list[float | None]]) -> list[Event]:
+    """``messages`` (each topic's in the bag's order) with their header stamps."""
+    if not stamps:
+        return list(messages)
+    counts = Counter(m.topic for m in messages)
+    usable = {t: s for t, s in stamps.items() if len(s) == counts.get(t)}
+    position: dict[str, int] = dict.fromkeys(usable, 0)
+    out: list[Event] = []
+    for m in messages:
+        column = usable.get(m.topic)
+        if column is None:
+            out.append(m)
+            continue
+        i = position[m.topic]
+        position[m.topic] = i + 1
+        out.append(Message(m.t, m.topic, m.values, column[i]))
+    return out
 
 
 def shifted(events: Iterable[Event], by: float) -> list[Event]:

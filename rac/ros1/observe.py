@@ -8,7 +8,7 @@ from typing import Any
 
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec
 from rac.ros1.common import connection_type, require_ros, resolve_pid, to_array
-from rac.runtime.host import HostLoop, ObserverHost
+from rac.runtime.host import HostLoop, ObserverHost, Schedule
 from rac.runtime.procs import ProcessProbe
 from rac.runtime.status import OBSERVATIONS, rows_from_array
 from rac.runtime.values import Readers
@@ -31,7 +31,8 @@ def run_observe(
     readers = Readers(bank.topic_fields())
 
     def on_message(msg: Any, topic: str) -> None:
-        host.message(topic, readers.values(topic, msg._buff, lambda: connection_type(msg)))
+        values, stamp = readers.read(topic, msg._buff, lambda: connection_type(msg))
+        host.message(topic, values, stamp)
 
     subs = [
         rospy.Subscriber(topic, rospy.AnyMsg, on_message, callback_args=topic, queue_size=50)
@@ -53,8 +54,8 @@ def run_observe(
     rospy.loginfo(
         "racc observe: %d observers, %d topics, %d nodes", len(specs), len(subs), len(probe.nodes)
     )
-    loop = HostLoop(host, probe, republish_s)
     period = 1.0 / sample_hz
+    loop = HostLoop(host, probe, republish_s, Schedule(period_s=period))
     next_tick = time.time()
     while not rospy.is_shutdown():
         step = loop.step(time.time())

@@ -25,7 +25,7 @@ from rac.ros2.common import (
     sensor_qos,
     to_array,
 )
-from rac.runtime.host import HostLoop, ObserverHost
+from rac.runtime.host import HostLoop, ObserverHost, Schedule
 from rac.runtime.procs import ProcessProbe
 from rac.runtime.status import OBSERVATIONS, rows_from_array
 from rac.runtime.values import Readers
@@ -61,7 +61,8 @@ def run_observe(
             return
 
         def on_message(raw: bytes) -> None:
-            host.message(topic, readers.values(topic, raw, lambda: (ros_type, "")))
+            values, stamp = readers.read(topic, raw, lambda: (ros_type, ""))
+            host.message(topic, values, stamp)
 
         subs[topic] = node.create_subscription(cls, topic, on_message, sensor_qos(), raw=True)
 
@@ -90,8 +91,8 @@ def run_observe(
         0,
         f"racc observe: {len(specs)} observers, {len(wanted)} topics, {len(probe.nodes)} nodes",
     )
-    loop = HostLoop(host, probe, republish_s)
     period = 1.0 / sample_hz
+    loop = HostLoop(host, probe, republish_s, Schedule(period_s=period))
     next_tick = next_discover = time.time()
     try:
         while session.ok:

@@ -3,6 +3,21 @@
 It keeps the current verdict of every atom, so that a transport can publish the whole
 observation set (one status per literal) whenever a verdict changes and again
 periodically for late subscribers, and logs each change with its time.
+
+**Two clocks.**  The observers run on seconds since the host started (small numbers keep
+their running sums exact); every time the host shows, in its log and in ``since`` on
+``/observations``, is wall-clock seconds since 1970, as the engine's and the repairer's
+logs are: the host's own time plus :attr:`ObserverHost.epoch`, which the sample loop
+refreshes at each tick.
+
+**Starvation.**  The host times each message when its callback runs.  When the process does
+not get the CPU, messages wait and then arrive in a clump, and a topic looks silent or
+bursty although its publisher is fine.  The host watches its own sample loop
+(:class:`HostLoop`, 10 Hz): it is starved from the moment a tick is overdue by more than
+``starved_s`` (0.1 s), seen by the late tick itself or by any message callback that runs
+before it, until ticks have come on time for ``recover_s`` (1 s).  While it is starved the
+observers that judge time count no violation and report no new negative verdict
+(:meth:`rac.observe.ObserverBank.starved`); the beginning and the end are logged.
 """
 
 from __future__ import annotations
@@ -32,10 +47,17 @@ class ObserverHost:
         # (regressions over time) accurate, which epoch seconds (~1.8e9) would not.
         start = time.monotonic()
         self.clock = clock or (lambda: time.monotonic() - start)
+        self.epoch = time.time() - self.clock()  # wall-clock time = host time + epoch
         self.owner: dict[Atom, str] = {a: s.name for s in self.specs for a in s.atoms}
         self.current: dict[Atom, Verdict] = {}
         self.changes: list[Verdict] = []  # since the last ``take_changes``
         self.errors: list[str] = []  # observers that failed on an event, for the log
+        self.notes: list[str] = []  # starvation began or ended, for the log
+        self.starved = False
+        self.schedule: Schedule | None = None  # the sample loop's, once it ticks
+        self._last_tick: float | None = None
+        self._on_time_since: float | None = None
+        self._starved_since = 0.0
         self._lock = threading.Lock()
         self._last_t = float("-inf")
 
@@ -43,14 +65,64 @@ class ObserverHost:
     def atoms(self) -> tuple[Atom, ...]:
         return tuple(self.owner)
 
+    def wall(self, t: float) -> float:
+        """Host time ``t`` as wall-clock seconds since 1970."""
+        return t + self.epoch
+
     def _now(self) -> float:
         # Every stream must see non-decreasing times, whatever thread delivers the event.
         self._last_t = max(self._last_t, self.clock())
         return self._last_t
 
-    def message(self, topic: str, values: Mapping[str, float]) -> None:
+    def message(self, topic: str, values: Mapping[str, float], stamp: float | None = None) -> None:
+        """A message received now; ``stamp`` its header stamp (None: none)."""
         with self._lock:
-            self._feed(Message(self._now(), topic, values))
+            t = self._now()
+            schedule = self.schedule
+            if schedule is not None and not self.starved and self._last_tick is not None:
+                late = t - self._last_tick - schedule.period_s
+                if late > schedule.starved_s:
+                    self._starve(t, late, "a message came")
+            self._feed(Message(t, topic, values, stamp))
+
+    def tick(self, wall: float, schedule: Schedule) -> None:
+        """The sample loop's tick at wall-clock time ``wall``: the epoch, and whether the
+        host is starved (see the module's docstring)."""
+        with self._lock:
+            self.schedule = schedule
+            t = self._now()
+            self.epoch = wall - self.clock()
+            last, self._last_tick = self._last_tick, t
+            if last is None:
+                return
+            late = t - last - schedule.period_s
+            if late > schedule.starved_s:
+                self._on_time_since = None
+                if not self.starved:
+                    self._starve(t, late, "the sample tick came")
+                return
+            if not self.starved:
+                return
+            if self._on_time_since is None:
+                self._on_time_since = last
+            if t - self._on_time_since >= schedule.recover_s:
+                self.starved = False
+                self._keep(self.bank.starved(t, False))
+                self.notes.append(
+                    f"t={self.wall(t):.3f} observer host no longer starved, after "
+                    f"{t - self._starved_since:.2f} s: timing verdicts resume once "
+                    "late arrivals have left their windows"
+                )
+
+    def _starve(self, t: float, late: float, seen: str) -> None:
+        self.starved = True
+        self._starved_since = t
+        self._on_time_since = None
+        self._keep(self.bank.starved(t, True))
+        self.notes.append(
+            f"t={self.wall(t):.3f} observer host starved: {seen} {late:.3f} s after the "
+            "sample tick was due; timing verdicts held (no new not_ok)"
+        )
 
     def feed(self, events: Iterable[Event]) -> None:
         """Events of their own streams (node samples, statuses, channels), already timed."""
@@ -78,7 +150,7 @@ class ObserverHost:
         try:
             self._keep(self.bank.feed(event))
         except (ArithmeticError, ValueError) as err:  # one bad event must not stop the host
-            self.errors.append(f"{type(event).__name__} at t={event.t:.3f}: {err}")
+            self.errors.append(f"{type(event).__name__} at t={self.wall(event.t):.3f}: {err}")
 
     def _keep(self, verdicts: list[Verdict]) -> None:
         for v in verdicts:
@@ -95,11 +167,17 @@ class ObserverHost:
             out, self.errors = self.errors, []
             return out
 
+    def take_notes(self) -> list[str]:
+        with self._lock:
+            out, self.notes = self.notes, []
+            return out
+
     def rows(self) -> tuple[Row, ...]:
         """One status per current literal, sorted by atom."""
         with self._lock:
             verdicts = sorted(self.current.values(), key=lambda v: v.atom)
-        return tuple(literal_row(v, self.owner.get(v.atom, "")) for v in verdicts)
+            epoch = self.epoch
+        return tuple(literal_row(v, self.owner.get(v.atom, ""), v.t + epoch) for v in verdicts)
 
     def all_ok(self) -> bool:
         """Every atom reported, and positively."""
@@ -109,9 +187,19 @@ class ObserverHost:
             )
 
 
-def change_line(v: Verdict, observer: str) -> str:
-    """A log line for one verdict change, greppable: ``t=… observation not_ok(pose) …``."""
-    return f"t={v.t:.3f} observation {v} (by {observer})"
+def change_line(v: Verdict, observer: str, epoch: float = 0.0) -> str:
+    """A log line for one verdict change, greppable: ``t=… observation not_ok(pose) …``,
+    ``t`` wall-clock seconds (the verdict's host time plus ``epoch``)."""
+    return f"t={v.t + epoch:.3f} observation {v} (by {observer})"
+
+
+@dataclass(frozen=True, slots=True)
+class Schedule:
+    """The sample loop's period, and when the host counts as starved (module docstring)."""
+
+    period_s: float = 0.1
+    starved_s: float = 0.1  # a tick overdue by more than this: starved
+    recover_s: float = 1.0  # ticks on time for this long: no longer starved
 
 
 @dataclass(frozen=True, slots=True)
@@ -122,23 +210,34 @@ class HostStep:
 
 
 class HostLoop:
-    """One sample period of the observer host node: node and property samples, the
-    observers' clocks, what changed, and whether to publish (on a change, and every
-    ``republish_s`` for late subscribers)."""
+    """One sample period of the observer host node: whether the host is starved, node and
+    property samples, the observers' clocks, what changed, and whether to publish (on a
+    change, and every ``republish_s`` for late subscribers).  The transport calls
+    :meth:`step` every ``schedule.period_s`` with the wall-clock time."""
 
-    def __init__(self, host: ObserverHost, probe: ProcessProbe, republish_s: float = 1.0) -> None:
+    def __init__(
+        self,
+        host: ObserverHost,
+        probe: ProcessProbe,
+        republish_s: float = 1.0,
+        schedule: Schedule | None = None,
+    ) -> None:
         self.host, self.probe, self.republish_s = host, probe, republish_s
+        self.schedule = schedule or Schedule()
         self._last_publish = float("-inf")
 
     def step(self, now: float) -> HostStep:
         host = self.host
+        host.tick(now, self.schedule)
         host.feed(self.probe.sample(host.clock()))
         host.advance()
         changes = host.take_changes()
-        lines = tuple(change_line(v, host.owner.get(v.atom, "")) for v in changes)
+        lines = host.take_notes()
+        epoch = host.epoch
+        lines += [change_line(v, host.owner.get(v.atom, ""), epoch) for v in changes]
         warnings = tuple(f"an observer failed on {e}" for e in host.take_errors()[:5])
         rows = None
         if changes or now - self._last_publish >= self.republish_s:
             rows = host.rows()
             self._last_publish = now
-        return HostStep(lines, warnings, rows)
+        return HostStep(tuple(lines), warnings, rows)

@@ -12,7 +12,7 @@ message type and back.  docs/runtime.md documents the same mapping for users.
     level        0 (OK) for the literal, 2 (ERROR) for its negation
     message      the literal: "ok(pose)" or "not_ok(pose)"
     hardware_id  the observer that reported it: "pose_gobs"
-    values       since: the time (s) the observer's verdict last changed
+    values       since: when the observer's verdict last changed (wall-clock s since 1970)
 
 ``/diagnosis``, one row per minimal diagnosis (no rows: the robot is healthy)::
 
@@ -84,13 +84,14 @@ def rows_from_array(array: Any) -> list[Row]:
 # -- /observations ---------------------------------------------------------------------
 
 
-def literal_row(verdict: Verdict, observer: str) -> Row:
+def literal_row(verdict: Verdict, observer: str, since: float | None = None) -> Row:
+    """``since`` defaults to the verdict's own time."""
     return Row(
         name=str(verdict.atom),
         level=OK if verdict.positive else ERROR,
         message=str(verdict),
         hardware_id=observer,
-        values=(("since", f"{verdict.t:.3f}"),),
+        values=(("since", f"{verdict.t if since is None else since:.3f}"),),
     )
 
 

@@ -7,7 +7,8 @@ types included; ROS 2: the types rosbags knows, standard ones), reads the fields
 observers asked for with the same layout and extractor ``racc learn`` uses on a recording
 (``yaw``, ``pitch`` and ``roll`` derived from a quaternion), and unwraps yaw and roll into
 continuous signals as the learner does, incrementally.  Only topics whose fields some
-observer reads are deserialized at all: a frequency observer needs the arrival time only.
+observer reads are deserialized at all; of the others only the header stamp is read
+(:mod:`rac.learn.stamps`, a fixed place in the bytes), for the frequency observer.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from rosbags.typesys.store import Typestore
 
 from rac.learn.fields import FieldSelector, layout_of
 from rac.learn.fields import extractor as field_extractor
+from rac.learn.stamps import StampReader, stamp_reader
 
 WRAPPING = frozenset({"yaw", "roll"})
 TAU = 2 * math.pi
@@ -53,11 +55,15 @@ class Decoders:
     def for_topic(
         self, topic: str, fields: frozenset[str], ros_type: str, definition: str
     ) -> TopicValues:
-        if not fields:
+        try:
+            name = self.register(ros_type, definition)
+        except Exception:  # a definition rosbags cannot parse: arrival times only
             return TopicValues(topic, (), None)
-        name = self.register(ros_type, definition)
         if name not in self.store.fielddefs:
             return TopicValues(topic, (), None)
+        stamp = stamp_reader(self.store.fielddefs, name, cdr=self.ros_version != 1)
+        if not fields:
+            return TopicValues(topic, (), None, stamp)
         selector = FieldSelector(declared={topic: fields})
         layout = layout_of(self.store.fielddefs, name, topic, selector)
         extract = field_extractor(layout)
@@ -68,21 +74,24 @@ class Decoders:
         def read(raw: bytes) -> tuple[float, ...]:
             return extract(deserialize(raw, name))
 
-        return TopicValues(topic, layout.fields, read)
+        return TopicValues(topic, layout.fields, read, stamp)
 
 
 class TopicValues:
-    """Values of one topic's messages: field -> value, yaw and roll kept continuous."""
+    """Values of one topic's messages: field -> value, yaw and roll kept continuous; and
+    the header stamp where the type has one."""
 
     def __init__(
         self,
         topic: str,
         fields: tuple[str, ...],
         read: Callable[[bytes], tuple[float, ...]] | None,
+        stamp: StampReader | None = None,
     ) -> None:
         self.topic = topic
         self.fields = fields
         self._read = read
+        self._stamp = stamp
         self._wrap = tuple(f in WRAPPING for f in fields)
         self._last: list[float] = [math.nan] * len(fields)
         self._turns: list[float] = [0.0] * len(fields)
@@ -109,6 +118,10 @@ class TopicValues:
             out[field] = value
         return out
 
+    def stamp(self, raw: bytes) -> float | None:
+        """The header stamp in seconds; None without a header, or when it is zero."""
+        return None if self._stamp is None else self._stamp(raw)
+
 
 class Readers:
     """A :class:`TopicValues` per topic, made on its first message (thread-safe): a
@@ -124,11 +137,23 @@ class Readers:
     def values(
         self, topic: str, raw: bytes, describe: Callable[[], tuple[str, str]]
     ) -> Mapping[str, float]:
+        return self._reader(topic, describe).values(raw)
+
+    def read(
+        self, topic: str, raw: bytes, describe: Callable[[], tuple[str, str]]
+    ) -> tuple[Mapping[str, float], float | None]:
+        """The values and the header stamp (None: none) of one message."""
+        reader = self._reader(topic, describe)
+        return reader.values(raw), reader.stamp(raw)
+
+    def _reader(self, topic: str, describe: Callable[[], tuple[str, str]]) -> TopicValues:
         reader = self._readers.get(topic)
         if reader is None:
             with self._lock:
-                ros_type, definition = describe()
-                fields = self.fields.get(topic, frozenset())
-                reader = self.decoders.for_topic(topic, fields, ros_type, definition)
-                self._readers[topic] = reader
-        return reader.values(raw)
+                reader = self._readers.get(topic)
+                if reader is None:
+                    ros_type, definition = describe()
+                    fields = self.fields.get(topic, frozenset())
+                    reader = self.decoders.for_topic(topic, fields, ros_type, definition)
+                    self._readers[topic] = reader
+        return reader

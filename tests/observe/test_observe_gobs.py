@@ -18,9 +18,13 @@ from rac.passes.observers import ObserverSpec
 OK = Atom("ok", ("x",))
 
 
+# The text's Algorithm 1: no window floor, no hold, no silence floor, receive times only.
+TEXT = (("min_window_s", 0.0), ("min_count", 0), ("hold_s", 0.0), ("silence_s", 0.0))
+
+
 def gobs(delta: float = 0.25, dev: float = 0.05, ws: float = 1.0, theta: int = 2) -> Observer:
     params = (("topic", "/x"), ("delta", delta), ("dev", dev), ("ws", ws), ("mismatch_th", theta))
-    return build(ObserverSpec("GObs", "x_gobs", params, (OK,)))
+    return build(ObserverSpec("GObs", "x_gobs", params + TEXT + (("stamps", 0),), (OK,)))
 
 
 def run(obs: Observer, times: list[float]) -> list[Verdict]:

@@ -18,6 +18,7 @@ import pytest
 from rac.logic import Atom
 from rac.observe import Message, Verdict, build
 from rac.observe import qobs as qobs_module
+from rac.observe.biqobs import BiQObs
 from rac.observe.qobs import MIN_HISTORY, QObs, SlidingSlope, Trend, TrendAt
 from rac.passes.observers import ObserverSpec, ParamValue
 
@@ -434,3 +435,19 @@ def test_biqobs_compares_the_two_sides_at_the_same_time() -> None:
             run_ = run_ + 1 if latest == {INC, D} else 0
             longest = max(longest, run_)
     assert longest > 3
+
+
+def test_biqobs_counts_no_mismatch_while_starved_and_three_windows_after() -> None:
+    obs = build(biq())
+    assert isinstance(obs, BiQObs)
+    out = []
+    for t in range(20):
+        if t == 5:
+            obs.starved(5.0, True)
+        if t == 12:
+            obs.starved(12.0, False)  # mismatches count again from 12 + 3ω = 18
+        out += obs.feed(Message(float(t), "/a", {"x": float(t)}))
+        out += obs.feed(Message(float(t), "/b", {"y": -float(t)}))
+    # The first check (7) falls in the starvation: nothing counts until 18 (count 1, the
+    # first verdict is positive), 19 gives count 2 > θ.
+    assert trace(out) == [(18.0, "matched(a,x,b,y)"), (19.0, "not_matched(a,x,b,y)")]

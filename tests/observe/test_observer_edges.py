@@ -50,8 +50,14 @@ def twelve_digits(x: float) -> float:
 OK_X = Atom("ok", ("x",))
 
 
+# The text's Algorithm 1: no window floor, no hold, no silence floor, receive times only.
+TEXT = {"min_window_s": 0.0, "min_count": 0, "hold_s": 0.0, "silence_s": 0.0, "stamps": False}
+
+
 def gobs(delta: float, dev: float, ws: float, theta: int) -> Observer:
-    return build(spec("GObs", OK_X, topic="/x", delta=delta, dev=dev, ws=ws, mismatch_th=theta))
+    return build(
+        spec("GObs", OK_X, topic="/x", delta=delta, dev=dev, ws=ws, mismatch_th=theta, **TEXT)
+    )
 
 
 def feed_times(obs: Observer, times: list[float]) -> list[Verdict]:

@@ -1,0 +1,118 @@
+"""The observer host's clocks: starvation of its own sample loop, and wall-clock times in
+its log lines and on /observations."""
+
+from __future__ import annotations
+
+from rac.logic import Atom
+from rac.passes.observers import ObserverSpec
+from rac.runtime.host import HostLoop, HostStep, ObserverHost, Schedule
+from rac.runtime.procs import ProcessProbe
+
+WALL0 = 1.78e9  # the wall clock when the host's own clock reads 0
+RATE = 100.0
+SPEC = ObserverSpec(
+    "GObs",
+    "x_gobs",
+    (
+        ("topic", "/x"),
+        ("delta", 1 / RATE),
+        ("dev", 1 / (0.9 * RATE) - 1 / RATE),
+        ("ws", 10 / RATE),
+        ("mismatch_th", 5),
+    ),
+    (Atom("ok", ("x",)),),
+)
+
+
+class Robot:
+    """A 100 Hz topic and the host's 10 Hz sample loop on a fake clock."""
+
+    def __init__(self, ticking: bool = True) -> None:
+        self.now = 0.0
+        self.host = ObserverHost([SPEC], clock=lambda: self.now)
+        self.loop = HostLoop(self.host, ProcessProbe([], lambda _: None), schedule=Schedule())
+        self.ticking = ticking
+        self.lines: list[str] = []
+        self.steps: list[HostStep] = []
+        self._next_tick = 0.0
+        self._k = 0
+
+    def run(self, until: float, publish: bool = True) -> None:
+        """Messages every 10 ms (stamped by the publisher) and ticks every 0.1 s."""
+        while True:
+            t_msg = self._k / RATE
+            t = min(t_msg, self._next_tick)
+            if t > until:
+                return
+            self.now = t
+            if t == self._next_tick:
+                if self.ticking:
+                    step = self.loop.step(WALL0 + t)
+                    self.steps.append(step)
+                    self.lines += step.lines
+                self._next_tick = round(self._next_tick + 0.1, 9)
+            else:
+                if publish:
+                    self.host.message("/x", {}, WALL0 + t_msg)
+                self._k += 1
+
+    def stall(self, seconds: float) -> None:
+        """The process gets no CPU: then the messages that waited arrive in a clump."""
+        stamps = []
+        end = self.now + seconds
+        while self._k / RATE <= end:
+            stamps.append(WALL0 + self._k / RATE)
+            self._k += 1
+        self._next_tick = round(self._next_tick + seconds - seconds % 0.1, 9)
+        self.now = end
+        for stamp in stamps:
+            self.host.message("/x", {}, stamp)
+
+
+def test_a_stalled_host_holds_its_verdicts_and_says_so() -> None:
+    robot = Robot()
+    robot.run(10.0)
+    assert robot.host.all_ok()
+    robot.stall(2.0)  # a message callback sees the tick 1.9 s overdue first
+    robot.run(20.0)
+    assert robot.host.all_ok()
+    starved = [line for line in robot.lines if "starved" in line]
+    assert len(starved) == 2, robot.lines
+    assert starved[0].startswith(f"t={WALL0 + 12.0:.3f} observer host starved: a message came")
+    assert "no longer starved" in starved[1]
+    assert not [line for line in robot.lines if "observation not_ok" in line]
+
+
+def test_the_same_stall_reads_not_ok_without_the_watch() -> None:
+    # No sample loop: nobody knows the host was starved, and the 2 s the messages waited
+    # read as a silence.
+    robot = Robot(ticking=False)
+    robot.run(10.0)
+    robot.stall(2.0)
+    assert [str(v) for v in robot.host.take_changes()] == ["ok(x)", "not_ok(x)"]
+
+
+def test_a_late_tick_starts_a_starvation_and_a_stopped_topic_still_shows_after_it() -> None:
+    robot = Robot()
+    robot.run(5.0)
+    robot.now = 5.5  # the tick of 5.1 comes at 5.5: overdue by 0.4 s, no message between
+    robot._next_tick = 5.5
+    robot.run(5.5, publish=False)
+    assert any("starved: the sample tick came 0.400 s" in line for line in robot.lines)
+    robot.run(9.0, publish=False)  # the topic stopped at 5.0: not_ok once the host is fed
+    assert "no longer starved" in " ".join(robot.lines)
+    assert not robot.host.all_ok()
+    (line,) = [line for line in robot.lines if "observation not_ok(x)" in line]
+    # Silence is timed from the end of the starvation (1 s of ticks on time after 5.5).
+    t = float(line.split()[0].removeprefix("t=")) - WALL0
+    assert 6.5 + 0.5 < t <= 6.5 + 0.5 + 0.06 + 0.5 + 0.01
+
+
+def test_log_lines_and_since_are_wall_clock_times() -> None:
+    robot = Robot()
+    robot.run(2.0)
+    (line,) = [line for line in robot.lines if "observation" in line]
+    verdict = robot.host.current[SPEC.atoms[0]]
+    assert line == f"t={WALL0 + verdict.t:.3f} observation ok(x) (by x_gobs)"
+    (row,) = robot.host.rows()
+    assert row.value("since") == f"{WALL0 + verdict.t:.3f}"
