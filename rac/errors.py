@@ -202,6 +202,8 @@ CODES: dict[str, str] = {
     "RAC116": "ROS 2 (rclpy) is not available to this Python",
     "RAC117": "a ROS 2 launch file cannot be read, or names no such node",
     "RAC118": "a package or executable is not in the ament index",
+    "RAC124": "a node that did not stop cannot be killed (it runs on another machine)",
+    "RAC125": "a repairer option is out of range",
     "RAC100": "subscribed topic has no publisher",
     "RAC101": "hardware driven by no node",
     "RAC102": "node with no topics",

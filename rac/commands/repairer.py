@@ -8,12 +8,13 @@ from typing import Any
 
 from rac.commands.common import add_command, add_ros_option, ros_version
 from rac.diagnosis import load_theory
+from rac.errors import Diagnostic, RacError
 from rac.loader import load_observers
 from rac.logic import mangle
 from rac.observe.hobs import parse_channels
 from rac.repair import robot_name
 from rac.runtime.nodes import RepairJob
-from rac.runtime.repairer import Settings
+from rac.runtime.repairer import Mode, Settings
 
 
 def register(sub: Any) -> None:
@@ -23,15 +24,24 @@ def register(sub: Any) -> None:
         "run the repair engine as a ROS node (ROS 1 or 2)",
         "Plan a repair with Fast Downward for each diagnosis on /diagnosis (Algorithm 11, "
         "with the observations of /observations) and execute it: a node is stopped and started "
-        "again from its entry in the launch file given with --launch (ROS 1: roslaunch's Python "
-        "API; ROS 2: the <node> of a launch XML file, started as ros2 launch would, or the "
-        "command of --restart-command), "
-        "a switchable device is switched through the board client. Each step waits until its "
-        "effect shows in the observations (--step-timeout), is tried once more, then the "
-        "repair is abandoned with an escalation (RAC110). Every action and outcome goes to "
-        "/repair_log. Needs ROS 1 (rospy, roslaunch) or ROS 2 (rclpy).",
+        "again from its entry in the launch file given with --launch (ROS 1: the command "
+        "roslaunch would run; ROS 2: the <node> of a launch XML file, started as ros2 launch "
+        "would, or the command of --restart-command), detached from racc so that it outlives "
+        "it; a switchable device is switched through the board client. A diagnosis must stand "
+        "--confirm seconds, a node never seen running is left alone for --startup-grace "
+        "seconds, each component has a budget of repairs (--budget in --budget-window) with a "
+        "doubling back-off (--backoff), a plan is aborted when its diagnosis clears, and "
+        "nothing is repaired while the robot shuts down. Each step waits until its effect "
+        "shows in the observations (--step-timeout), is tried once more (a node that does not "
+        "stop is killed), then the repair is abandoned with an escalation (RAC110). Every "
+        "decision goes to /repair_log, the repairer's state to /diagnostics. --advise "
+        "publishes each plan on /repair_plan and executes it once an operator publishes its "
+        "id on the repairer's ~confirm topic; --dry-run only logs. Needs ROS 1 (rospy, "
+        "roslaunch) or ROS 2 (rclpy).",
         "  racc repairer build/tedusar/model.yaml --launch robot.launch\n"
         "  racc repairer build/tedusar/model.yaml --launch robot.launch --step-timeout 8\n"
+        "  racc repairer build/tedusar/model.yaml --launch robot.launch --advise\n"
+        "  rostopic pub -1 /racc_repairer/confirm std_msgs/String 3   # execute plan 3\n"
         "  racc repairer build/tedusar/model.yaml --ros 2 --launch robot.launch.xml\n"
         "  racc repairer build/tedusar/model.yaml --ros 2 "
         "--restart-command 'ros2 run my_robot {node} --ros-args -r __node:={node}'",
@@ -53,7 +63,8 @@ def register(sub: Any) -> None:
         metavar="S",
         type=float,
         default=5.0,
-        help="seconds a step may take to show its effect, then it is tried once more (default: 5)",
+        help="seconds a step may take to show its effect, from its request, then it is tried "
+        "once more (a node that did not stop is killed) (default: 5)",
     )
     parser.add_argument(
         "--verify-timeout",
@@ -61,6 +72,59 @@ def register(sub: Any) -> None:
         type=float,
         default=10.0,
         help="seconds the engine has to report no fault after a plan (default: 10)",
+    )
+    s = Settings()
+    parser.add_argument(
+        "--confirm",
+        metavar="S",
+        type=float,
+        default=s.confirm_s,
+        help=f"seconds a diagnosis must stand before a plan (default: {s.confirm_s:g})",
+    )
+    parser.add_argument(
+        "--startup-grace",
+        metavar="S",
+        type=float,
+        default=s.startup_grace_s,
+        help="seconds a node never seen running is left alone, from the repairer's start, "
+        f"the node's first observation and the robot's return (default: {s.startup_grace_s:g})",
+    )
+    parser.add_argument(
+        "--budget",
+        metavar="N",
+        type=int,
+        default=s.budget,
+        help="repairs of one component within --budget-window; one more is escalated "
+        f"(RAC110) and the component left alone until the window frees (default: {s.budget})",
+    )
+    parser.add_argument(
+        "--budget-window",
+        metavar="S",
+        type=float,
+        default=s.budget_window_s,
+        help=f"seconds of the repair budget's window (default: {s.budget_window_s:g})",
+    )
+    parser.add_argument(
+        "--backoff",
+        metavar="S",
+        type=float,
+        default=s.backoff_s,
+        help="seconds between a component's first and second repair in the window, doubled "
+        f"for each further one (default: {s.backoff_s:g})",
+    )
+    modes = parser.add_mutually_exclusive_group()
+    modes.add_argument(
+        "--mode",
+        choices=[m.value for m in Mode],
+        default=Mode.ACT.value,
+        help="act: execute plans; advise: publish each plan on /repair_plan and execute it "
+        "once its id is published on ~confirm; dry-run: log plans, never act (default: act)",
+    )
+    modes.add_argument(
+        "--advise", dest="mode", action="store_const", const="advise", help="--mode advise"
+    )
+    modes.add_argument(
+        "--dry-run", dest="mode", action="store_const", const="dry-run", help="--mode dry-run"
     )
     parser.add_argument(
         "--strategy",
@@ -90,7 +154,44 @@ def names(observers: str | None) -> tuple[dict[str, str], dict[str, str]]:
     return nodes, devices
 
 
+def settings_from(args: argparse.Namespace) -> Settings:
+    """The executor's settings from the options; RAC125 for one out of range."""
+    seconds = {
+        "--confirm": args.confirm,
+        "--startup-grace": args.startup_grace,
+        "--budget-window": args.budget_window,
+        "--backoff": args.backoff,
+        "--step-timeout": args.step_timeout,
+        "--verify-timeout": args.verify_timeout,
+    }
+    bad = [f"{name} {value:g}" for name, value in seconds.items() if not value >= 0]
+    if args.budget < 1:
+        bad.append(f"--budget {args.budget}")
+    if bad:
+        raise RacError(
+            [
+                Diagnostic(
+                    "RAC125",
+                    f"repairer option out of range: {', '.join(bad)}",
+                    hint="give times as seconds >= 0 and a budget of at least 1",
+                )
+            ]
+        )
+    return Settings(
+        confirm_s=args.confirm,
+        startup_grace_s=args.startup_grace,
+        step_timeout_s=args.step_timeout,
+        verify_timeout_s=args.verify_timeout,
+        budget=args.budget,
+        budget_window_s=args.budget_window,
+        backoff_s=args.backoff,
+        strategy=args.strategy,
+        mode=Mode(args.mode),
+    )
+
+
 def run(args: argparse.Namespace) -> int:
+    settings = settings_from(args)
     theory = load_theory(args.model)
     ros = ros_version(args)
     if args.launch and ros == 2:
@@ -104,11 +205,6 @@ def run(args: argparse.Namespace) -> int:
     observers = args.observers or str(Path(args.model).parent / "observers.yaml")
     args.launch = args.launch or None  # the compiled launch file passes "--launch=" for none
     nodes, devices = names(observers)
-    settings = Settings(
-        step_timeout_s=args.step_timeout,
-        verify_timeout_s=args.verify_timeout,
-        strategy=args.strategy,
-    )
     job = RepairJob(theory, robot_name(theory, args.model), args.launch, nodes, devices, settings)
     if ros == 2:
         from rac.ros2.repairer import run_repairer as run2

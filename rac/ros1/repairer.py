@@ -2,24 +2,41 @@
 
 The executor (:mod:`rac.runtime.repairer`) decides; this node carries out its requests:
 
-- start_node(n): the entry named ``n`` in the user's launch file (``--launch``), started
-  through roslaunch's Python API (``roslaunch.scriptapi.ROSLaunch``) with its package,
-  type, args, remappings and environment; the file's parameters are already on the
-  parameter server from the user's own roslaunch;
-- stop_node(n): a node this repairer started is stopped by roslaunch; any other is asked to
-  shut down over its XML-RPC API (as ``rosnode kill`` does), then sent SIGTERM;
+- start_node(n): the entry named ``n`` in the user's launch file (``--launch``), its
+  command line and environment made by roslaunch's own code (package, type, args,
+  remappings, environment; the file's parameters are already on the parameter server from
+  the user's own roslaunch), started detached from racc (a session of its own): the node
+  belongs to the robot and outlives racc;
+- stop_node(n): a node this repairer started gets SIGINT, then SIGTERM; any other is asked
+  to shut down over its XML-RPC API (as ``rosnode kill`` does), then sent SIGTERM;
+- kill_node(n): SIGKILL to the node's local process (a frozen node is found by its XML-RPC
+  port);
 - shutdown(d) / power_up(d): a request on ``/board_switch`` to the board client node.
 """
 
 from __future__ import annotations
 
+import os
 import signal
 import threading
+import time
+import xmlrpc.client
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+from urllib.parse import urlparse
 
 from rac.errors import Diagnostic, RacError
-from rac.ros1.common import CALLER, Ros1Bus, node_uri, proxy, resolve_pid
+from rac.ros1.common import (
+    CALLER,
+    LOCAL_HOSTS,
+    Ros1Bus,
+    master_uri,
+    node_uri,
+    proxy,
+    resolve_pid,
+)
+from rac.runtime.detached import Detached, kill_pids, listening_pid, started_note
 from rac.runtime.nodes import RepairJob, run_repair_node
 from rac.runtime.procs import REMOTE, terminate
 
@@ -44,16 +61,17 @@ def load_launch_nodes(path: str) -> dict[str, Any]:
 
 
 class Ros1Actuator:
+    """The executor's requests on ROS 1.  Started nodes are detached (:mod:`rac.runtime.
+    detached`): they belong to the robot and outlive racc."""
+
     def __init__(self, rospy: Any, launch_file: str | None) -> None:
-        import roslaunch.scriptapi
         from diagnostic_msgs.msg import KeyValue
 
         self.rospy = rospy
         self.launch_file = launch_file
         self.entries = load_launch_nodes(launch_file) if launch_file else {}
-        self.launch = roslaunch.scriptapi.ROSLaunch()  # the main thread: roslaunch wants it
-        self.launch.start()
-        self.started: dict[str, Any] = {}
+        self.run_id = str(rospy.get_param("/run_id", "racc"))
+        self.detached = Detached()
         self.KeyValue = KeyValue
         self.switches = rospy.Publisher("/board_switch", KeyValue, queue_size=10)
 
@@ -65,31 +83,82 @@ class Ros1Actuator:
             raise RacError([Diagnostic("RAC111", f"node '{node}' has no entry in {where}")])
         return entry
 
-    def start_node(self, node: str) -> None:
+    def start_node(self, node: str) -> str:
+        """The entry's command line and environment as roslaunch makes them, run in a
+        session of its own."""
+        # What roslaunch.nodeprocess.create_node_process computes, without its Process
+        # object, which installs signal handlers (and fails off the main thread).
+        import roslaunch.core
+        import roslaunch.node_args
+        import rospkg
+
         entry = self._entry(node)
         try:
-            self.started[node] = self.launch.launch(entry)
-        except Exception as err:
+            made = roslaunch.node_args.create_local_process_args(entry, entry.machine)
+            env = roslaunch.core.setup_env(entry, entry.machine, master_uri())
+        except Exception as err:  # roslaunch raises many kinds for a bad entry
             raise RacError(
-                [Diagnostic("RAC111", f"roslaunch cannot start '{node}': {err}")]
+                [Diagnostic("RAC111", f"roslaunch cannot make the command of '{node}': {err}")]
             ) from None
+        log_dir = Path(rospkg.get_log_dir(env=os.environ)) / self.run_id
+        name = node.strip("/").replace("/", "-")
+        args = [a for a in made if not a.startswith("__log:=")]
+        args.append(f"__log:={log_dir / (name + '-racc.log')}")
+        if entry.cwd == "node":
+            cwd = os.path.dirname(args[0])
+        elif entry.cwd == "cwd":
+            cwd = os.getcwd()
+        else:
+            cwd = rospkg.get_ros_home()
+        pid, log = self.detached.start(node, args, env, cwd, log_dir)
+        return started_note(pid, log, f"rosnode kill /{node.lstrip('/')}")
 
-    def stop_node(self, node: str) -> None:
-        proc = self.started.pop(node, None)
-        if proc is not None and proc.is_alive():
-            proc.stop()
-            return
+    def stop_node(self, node: str) -> str:
+        """A node racc started: SIGINT to its session (as roslaunch stops a node), SIGTERM
+        2 s later.  Any other: XML-RPC shutdown (as rosnode kill), SIGTERM 2 s later.  A
+        node that does not stop is killed by the executor after the step time-out."""
+        pid = self.detached.pid(node)
+        if pid is not None and self.detached.signal(node, signal.SIGINT):
+            _later(2.0, lambda: self.detached.signal(node, signal.SIGTERM, only=pid))
+            return f"SIGINT to pid {pid} (started by racc)"
         pid = resolve_pid(node)
+        said = "not reachable over XML-RPC"
         try:
             uri = node_uri(node)
             if uri is not None:
                 proxy(uri).shutdown(CALLER, "racc repairer: stop_node")
-        except OSError:
+                said = "asked over XML-RPC to shut down"
+        except (OSError, xmlrpc.client.Error):
             pass
         if pid is not None and pid != REMOTE:
             threading.Thread(
-                target=terminate, args=(pid, (None, signal.SIGTERM, signal.SIGKILL)), daemon=True
+                target=terminate, args=(pid, (None, signal.SIGTERM)), kwargs={"grace_s": 2.0}
             ).start()
+            return f"{said}; SIGTERM to pid {pid} if it still runs in 2 s"
+        return said
+
+    def kill_node(self, node: str) -> str:
+        """SIGKILL: to the session racc started, else to the node's local process, found by
+        getPid or, for a node that does not answer (frozen), by its XML-RPC port."""
+        pid = self.detached.pid(node)
+        if pid is not None and self.detached.signal(node, signal.SIGKILL):
+            return f"SIGKILL to pid {pid} (started by racc)"
+        found = resolve_pid(node)
+        if found is None:
+            try:
+                uri = node_uri(node)
+            except (OSError, xmlrpc.client.Error):
+                uri = None
+            if uri is None:
+                return "it is no longer registered with the master: it stopped"
+            parsed = urlparse(uri)
+            local = (parsed.hostname or "") in LOCAL_HOSTS or (parsed.hostname or "").startswith(
+                "127."
+            )
+            found = listening_pid(parsed.port) if local and parsed.port else None
+            if local and found is None:
+                return "no process listens on its XML-RPC port: it stopped"
+        return kill_pids(node, [found] if found is not None and found != REMOTE else [])
 
     def switch(self, device: str, on: bool) -> None:
         if self.switches.get_num_connections() == 0:
@@ -104,14 +173,41 @@ class Ros1Actuator:
             )
         self.switches.publish(self.KeyValue(key=device, value="on" if on else "off"))
 
-    def shutdown(self) -> None:
-        self.launch.stop()
+    def reap(self) -> None:
+        self.detached.reap()
+
+
+def _later(delay_s: float, action: Callable[[], object]) -> None:
+    timer = threading.Timer(delay_s, action)
+    timer.daemon = True
+    timer.start()
+
+
+class MasterWatch:
+    """Is the ROS master there?  Asked once a second on a thread of its own, so that the
+    repair loop reads the answer without waiting for a master that does not answer."""
+
+    def __init__(self, period_s: float = 1.0) -> None:
+        self.state: tuple[bool, str] = (True, "")
+        self.period_s = period_s
+        threading.Thread(target=self._watch, daemon=True).start()
+
+    def _watch(self) -> None:
+        uri = master_uri()
+        while True:
+            try:
+                proxy(uri, 1.0).getPid(CALLER)
+                self.state = (True, "")
+            except (OSError, xmlrpc.client.Error):
+                self.state = (False, f"the ROS master at {uri} is gone")
+            time.sleep(self.period_s)
+
+    def __call__(self) -> tuple[bool, str]:
+        return self.state
 
 
 def run_repairer(job: RepairJob, name: str = "racc_repairer") -> None:
     bus = Ros1Bus(name)
     actuator = Ros1Actuator(bus.rospy, job.launch_file)
-    try:
-        run_repair_node(bus, actuator, job)
-    finally:
-        actuator.shutdown()
+    # The nodes racc started are left running: they belong to the robot.
+    run_repair_node(bus, actuator, job, after_tick=actuator.reap, middleware=MasterWatch())

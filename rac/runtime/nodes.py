@@ -8,8 +8,8 @@ and know when to stop.  :class:`Bus` is that much; ``rac.ros1.common.Ros1Bus`` a
 
 from __future__ import annotations
 
-import threading
 import time
+from collections import deque
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Protocol
@@ -18,9 +18,10 @@ from rac.diagnosis import Theory
 from rac.passes.observers import DIAGNOSTICS_TOPIC
 from rac.runtime.diagnoser import EngineLoop
 from rac.runtime.repairer import Actuator, LogEntry, RepairExecutor, Settings
-from rac.runtime.status import DIAGNOSIS, OBSERVATIONS, REPAIR_LOG, Row
+from rac.runtime.status import DIAGNOSIS, OBSERVATIONS, REPAIR_LOG, REPAIR_PLAN, Row
 
 POLL_S = 0.05
+STATUS_PERIOD_S = 1.0  # the repairer's status on /diagnostics
 
 
 class Bus(Protocol):
@@ -106,13 +107,24 @@ def run_repair_node(
     actuator: Actuator,
     job: RepairJob,
     after_tick: Callable[[], None] | None = None,
+    middleware: Callable[[], tuple[bool, str]] | None = None,
 ) -> None:
     """Carry out :class:`RepairExecutor`'s repairs of what ``/observations`` and
     ``/diagnosis`` show, logging each step on ``/repair_log``, until the bus stops.
-    ``after_tick`` runs after each of the executor's ticks (a ROS 2 actuator reaps the
-    processes it started there)."""
+
+    The bus's callbacks only queue what they receive; the loop hands it to the executor
+    before each tick, so a plan never goes ahead on a diagnosis that cleared while it was
+    being made.  Actuator calls run on threads of their own (a call that hangs does not
+    stall the loop).  The executor's status goes to ``/diagnostics`` once a second, the plan
+    awaiting an operator (advisory mode) to ``/repair_plan`` (latched), and ``~confirm``
+    (a ``std_msgs/String``: the plan's id) confirms it.  ``after_tick`` runs after each tick
+    (an actuator reaps the processes it started there); ``middleware`` says whether the
+    robot's middleware is there (ROS 1: the master), without blocking.
+    """
     theory = job.theory
     log_pub = bus.rows_publisher(REPAIR_LOG, 50, latched=True)
+    status_pub = bus.rows_publisher(DIAGNOSTICS_TOPIC, 10)
+    plan_pub = bus.rows_publisher(REPAIR_PLAN, 5, latched=True)
 
     def log(entry: LogEntry) -> None:
         bus.log(entry.level, str(entry))
@@ -126,28 +138,46 @@ def run_repair_node(
         nodes=job.nodes,
         devices=job.devices,
         settings=job.settings,
+        background=True,
     )
-    lock = threading.Lock()  # the bus calls back from its own threads
+    inbox: deque[Callable[[], None]] = deque()  # appended by the bus's threads
 
     def on_observations(rows: list[Row]) -> None:
-        with lock:
-            executor.observation_rows(rows, time.time())
+        t = time.time()
+        inbox.append(lambda: executor.observation_rows(rows, t))
 
     def on_diagnosis(rows: list[Row]) -> None:
-        with lock:
-            executor.diagnosis_rows(rows)
+        inbox.append(lambda: executor.diagnosis_rows(rows))
+
+    def on_confirm(text: str) -> None:
+        inbox.append(lambda: executor.confirm(text))
 
     bus.on_rows(OBSERVATIONS, on_observations, 50, latched=True)
     bus.on_rows(DIAGNOSIS, on_diagnosis, 10, latched=True)
+    bus.on_text("~confirm", on_confirm, 5)
+    s = job.settings
     bus.log(
         0,
         f"racc repairer: launch file {job.launch_file or '(none)'}, "
-        f"{len(theory.components)} components",
+        f"{len(theory.components)} components, mode {s.mode.value}, confirm {s.confirm_s:g} s, "
+        f"bring-up grace {s.startup_grace_s:g} s, budget {s.budget} in {s.budget_window_s:g} s",
     )
     period = 1.0 / job.rate_hz
+    pending: tuple[Row, ...] | None = None
+    next_status = 0.0
     while bus.ok:
-        with lock:
-            executor.tick()
+        while inbox:
+            inbox.popleft()()
+        if middleware is not None:
+            executor.middleware(*middleware())
+        executor.tick()
+        if executor.pending_rows() != pending:
+            pending = executor.pending_rows()
+            plan_pub(pending)
+        now = time.time()
+        if now >= next_status:
+            status_pub([executor.status(bus.name)])
+            next_status = now + STATUS_PERIOD_S
         if after_tick is not None:
             after_tick()
         time.sleep(period)

@@ -45,6 +45,7 @@ OK, WARN, ERROR, STALE = 0, 1, 2, 3
 OBSERVATIONS = "/observations"
 DIAGNOSIS = "/diagnosis"
 REPAIR_LOG = "/repair_log"
+REPAIR_PLAN = "/repair_plan"  # the plan awaiting an operator's confirmation (advisory mode)
 NO_DIAGNOSIS = "no diagnosis"
 
 

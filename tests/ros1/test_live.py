@@ -11,6 +11,7 @@ docs/runtime.md; the assertions are the issue's bounds.
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import signal
 import socket
@@ -65,6 +66,8 @@ class Seen:
     observations: list[tuple[float, list[tuple[str, int]]]] = field(default_factory=list)
     diagnosis: list[tuple[float, list[str]]] = field(default_factory=list)
     repair_log: list[tuple[float, str, str, int, str]] = field(default_factory=list)
+    # The repair engine's status on /diagnostics: (time, level, message, values).
+    repairer: list[tuple[float, int, str, dict[str, str]]] = field(default_factory=list)
     lock: threading.Lock = field(default_factory=threading.Lock)
 
     def wait(self, what: Callable[[], float | None], timeout: float) -> float | None:
@@ -104,6 +107,47 @@ class Live:
             except subprocess.TimeoutExpired:
                 proc.kill()
                 proc.wait(5)
+
+    def stop_started(self) -> None:
+        """Stop the nodes the repair engine started: they belong to the robot and outlive
+        racc (docs/runtime.md), so the test stops them by the pid /repair_log gives."""
+        for pid in started_pids(self.seen):
+            stop_session(pid)
+
+
+def started_pids(seen: Seen, target: str | None = None) -> list[int]:
+    """The pids of the nodes the repair engine started, from its start_node lines."""
+    with seen.lock:
+        return [
+            int(m.group(1))
+            for _, action, hw, _, msg in seen.repair_log
+            if action == "start_node" and (target is None or hw == target)
+            for m in [re.search(r"started detached as pid (\d+)", msg)]
+            if m
+        ]
+
+
+def pid_alive(pid: int) -> bool:
+    import psutil
+
+    try:
+        return bool(psutil.Process(pid).status() != psutil.STATUS_ZOMBIE)
+    except psutil.Error:
+        return False
+
+
+def stop_session(pid: int) -> None:
+    """SIGINT to a started node's session (its pid is the session's), SIGKILL if it lasts."""
+    for sig, wait in ((signal.SIGINT, 10.0), (signal.SIGKILL, 5.0)):
+        if not pid_alive(pid):
+            return
+        try:
+            os.killpg(pid, sig)
+        except OSError:
+            return
+        deadline = time.time() + wait
+        while time.time() < deadline and pid_alive(pid):
+            time.sleep(0.1)
 
 
 @pytest.fixture(scope="module")
@@ -167,7 +211,16 @@ def _monitor(seen: Seen) -> None:
 
     rospy.Subscriber("/observations", DiagnosticArray, obs)
     rospy.Subscriber("/diagnosis", DiagnosticArray, diag)
-    rospy.Subscriber("/repair_log", DiagnosticArray, log)
+
+    def status(a: Any) -> None:
+        with seen.lock:
+            for s in a.status:
+                if s.name.endswith(": repair"):
+                    values = {kv.key: kv.value for kv in s.values}
+                    seen.repairer.append((time.time(), s.level, s.message, values))
+
+    rospy.Subscriber("/repair_log", DiagnosticArray, log, queue_size=100)
+    rospy.Subscriber("/diagnostics", DiagnosticArray, status, queue_size=100)
 
 
 def all_ok_since(seen: Seen, after: float, atoms: int) -> Callable[[], float | None]:
@@ -193,6 +246,29 @@ def named_since(seen: Seen, after: float, component: str) -> Callable[[], float 
             if t >= after and any(component in d.split(",") for d in diagnoses):
                 return t
         return None
+
+    return check
+
+
+def observed_since(seen: Seen, after: float, literal: str) -> Callable[[], float | None]:
+    """When ``literal`` was first observed (level 0) after ``after``."""
+
+    def check() -> float | None:
+        for t, rows in seen.observations:
+            if t >= after and (literal, 0) in rows:
+                return t
+        return None
+
+    return check
+
+
+def everything_observed(seen: Seen, after: float, atoms: int) -> Callable[[], float | None]:
+    """When an observation set with every atom came (ok or not: under load a rate observer
+    may flicker, which the repair engine's confirmation time rides out)."""
+
+    def check() -> float | None:
+        full = [t for t, rows in seen.observations if t >= after and len(rows) >= atoms]
+        return full[0] if full else None
 
     return check
 
@@ -343,6 +419,7 @@ def test_demo_robot_faults_are_diagnosed_repaired_and_verified(live: Live) -> No
     finally:
         live.stop(runtime)
         live.stop(demo)
+        live.stop_started()
 
 
 def test_record_learn_compile_relaunch_diagnoses_a_crash(live: Live) -> None:
@@ -403,3 +480,137 @@ def test_record_learn_compile_relaunch_diagnoses_a_crash(live: Live) -> None:
         if runtime is not None:
             live.stop(runtime)
         live.stop(demo)
+        live.stop_started()
+
+
+def node_registered(node: str) -> bool:
+    import rosgraph
+
+    try:
+        rosgraph.Master("/racc_test").lookupNode(node)
+    except Exception:
+        return False
+    return True
+
+
+def test_a_node_the_repair_engine_started_outlives_the_runtime(live: Live) -> None:
+    # Ctrl-C on observers.launch used to take every node the repair engine had restarted
+    # with it (roslaunch scriptapi children): they belong to the robot.
+    seen = live.seen
+    crash_at = 20.0
+    demo, demo_dir, epoch = start_demo(live, "demo3", [f"crash@{crash_at:g}:imu_node"])
+    runtime = None
+    try:
+        time.sleep(6.0)
+        runtime = launch_runtime(live, demo_dir, None)
+        crash = epoch + crash_at
+        named = seen.wait(named_since(seen, crash, "imu_node"), crash - time.time() + 10)
+        assert named is not None, "the crash was not diagnosed"
+        deadline = time.time() + 20
+        while time.time() < deadline and not logged(seen, named, "start_node", "imu_node"):
+            time.sleep(0.2)
+        assert logged(seen, named, "start_node", "imu_node"), "imu_node was not restarted"
+        ok_again = seen.wait(observed_since(seen, named, "running(imu_node)"), 5)
+        assert ok_again is not None
+        (pid,) = started_pids(seen, "imu_node")
+        assert pid_alive(pid)
+        live.stop(runtime)  # SIGINT to roslaunch of observers.launch, as Ctrl-C
+        assert runtime.returncode is not None
+        time.sleep(3.0)
+        assert pid_alive(pid), "the restarted node died with the runtime"
+        assert node_registered("/imu_node"), "the restarted node left the graph"
+        print(f"\nimu_node (pid {pid}) still runs {time.time() - ok_again:.1f} s after repair")
+    finally:
+        if runtime is not None:
+            live.stop(runtime)
+        live.stop(demo)
+        live.stop_started()
+    assert not pid_alive(pid)
+
+
+def test_stopping_the_robot_before_the_runtime_repairs_nothing(live: Live) -> None:
+    # The robot was shut down before racc, and racc restarted the robot's nodes.
+    seen = live.seen
+    board = free_port()
+    demo, demo_dir, _ = start_demo(live, "demo4", [], board=board)
+    runtime = None
+    try:
+        time.sleep(6.0)
+        launched = time.time()
+        runtime = launch_runtime(live, demo_dir, board)
+        observed = seen.wait(everything_observed(seen, launched, live.quick_atoms), 45)
+        # The repair engine is up (its status on /diagnostics, once a second).
+        up = seen.wait(lambda: next((t for t, *_ in seen.repairer if t >= launched), None), 45)
+        assert up is not None, "no status of the repair engine on /diagnostics"
+        with seen.lock:
+            most = max((len(rows) for t, rows in seen.observations if t >= launched), default=0)
+        assert observed is not None, f"the runtime did not come up ({most} observations)"
+        time.sleep(3.0)
+        stopped = time.time()
+        live.stop(demo)  # the robot's roslaunch stops its nodes, one after the other
+        time.sleep(25.0)  # longer than confirmation, step and verification together
+        with seen.lock:
+            after = [(a, hw, m) for t, a, hw, _, m in seen.repair_log if t >= stopped]
+        acted = [x for x in after if x[0] in ("plan", "stop_node", "start_node", "power_up")]
+        assert not acted, acted
+        down = [m for a, _, m in after if a == "robot" and "shutting down" in m]
+        assert len(down) == 1, after
+        with seen.lock:
+            shown = [m for t, level, m, _ in seen.repairer if t >= stopped and level == 1]
+        assert any("the robot is shutting down" in m for m in shown), shown
+        print(f"\nrobot stopped: {down[0]}")
+    finally:
+        if runtime is not None:
+            live.stop(runtime)
+        live.stop(demo)
+        live.stop_started()
+
+
+def test_a_frozen_node_is_killed_after_the_step_timeout_and_restarted(live: Live) -> None:
+    # A frozen (SIGSTOP) node blocked a repair for 17 s, and the second attempt came 0.1 s
+    # after the first request.  Now the polite stop is given the step time-out (5 s), then
+    # the node is killed (found by its XML-RPC port: it answers nothing), then restarted.
+    import psutil
+
+    seen = live.seen
+    board = free_port()
+    demo, demo_dir, _ = start_demo(live, "demo5", [], board=board)
+    runtime = None
+    frozen: psutil.Process | None = None
+    try:
+        time.sleep(6.0)
+        launched = time.time()
+        runtime = launch_runtime(live, demo_dir, board)
+        observed = seen.wait(everything_observed(seen, launched, live.quick_atoms), 45)
+        assert observed is not None, "the runtime did not come up"
+        time.sleep(3.0)
+        (frozen,) = [
+            p
+            for p in psutil.process_iter(["cmdline"])
+            if "__name:=hokuyo_node" in (p.info["cmdline"] or [])
+            and str(demo_dir) in " ".join(p.info["cmdline"] or [])
+        ]
+        frozen_at = time.time()
+        frozen.suspend()  # SIGSTOP
+        deadline = time.time() + 40
+        while time.time() < deadline and not logged(seen, frozen_at, "start_node", "hokuyo_node"):
+            time.sleep(0.2)
+        with seen.lock:
+            steps = [
+                (round(t - frozen_at, 2), a, m[:70])
+                for t, a, hw, _, m in seen.repair_log
+                if t >= frozen_at and hw == "hokuyo_node"
+            ]
+        print(f"\nfrozen hokuyo_node: {steps}")
+        assert logged(seen, frozen_at, "start_node", "hokuyo_node"), steps
+        asked = next(t for t, a, m in steps if a == "stop_node" and "attempt 1" in m)
+        killed = next(t for t, a, m in steps if a == "stop_node" and "killed" in m)
+        assert 4.9 <= killed - asked <= 7.0, steps  # a full step time-out, then the kill
+        assert not frozen.is_running() or frozen.status() == psutil.STATUS_ZOMBIE
+    finally:
+        if frozen is not None and frozen.is_running():
+            frozen.resume()
+        if runtime is not None:
+            live.stop(runtime)
+        live.stop(demo)
+        live.stop_started()

@@ -15,6 +15,7 @@ timings printed (``-s``) are the README's figures; the assertions are the issue'
 from __future__ import annotations
 
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -93,6 +94,37 @@ class Live:
             except subprocess.TimeoutExpired:
                 proc.kill()
                 proc.wait(5)
+
+
+def started_pids(seen: Seen, target: str | None = None) -> list[int]:
+    """The pids of the nodes the repair engine started, from its start_node lines: they
+    belong to the robot and outlive racc (docs/runtime.md), so the test stops them."""
+    with seen.lock:
+        return [
+            int(m.group(1))
+            for _, action, hw, _, msg in seen.repair_log
+            if action == "start_node" and (target is None or hw == target)
+            for m in [re.search(r"started detached as pid (\d+)", msg)]
+            if m
+        ]
+
+
+def stop_started(seen: Seen) -> None:
+    import psutil
+
+    for pid in started_pids(seen):
+        for sig in (signal.SIGINT, signal.SIGKILL):
+            try:
+                os.killpg(pid, sig)
+            except OSError:
+                break  # gone already
+            try:
+                psutil.Process(pid).wait(10)
+                break
+            except psutil.TimeoutExpired:
+                continue  # SIGKILL next
+            except psutil.Error:
+                break
 
 
 def _level(status: Any) -> int:
@@ -304,10 +336,22 @@ def test_demo_robot_faults_are_diagnosed_repaired_and_verified(live: Live) -> No
                 if level and m.startswith("not_matched")
             ]
         print(f"BiQObs not_matched seen: {flips}")
+
+        # The nodes the repair engine started belong to the robot: they outlive it.
+        started = started_pids(seen, "jaguar_node")
+        assert started, "no start_node line names the pid of the node it started"
+        for proc in runtime:
+            live.stop(proc)
+        time.sleep(2.0)
+        import psutil
+
+        latest = psutil.Process(started[-1])  # restarted for the trip, the last of them
+        assert latest.is_running() and latest.status() != psutil.STATUS_ZOMBIE
     finally:
         for proc in runtime:
             live.stop(proc)
         live.stop(demo)
+        stop_started(seen)
 
 
 def test_record_then_learn_on_ros2(live: Live) -> None:

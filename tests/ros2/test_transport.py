@@ -98,3 +98,50 @@ def test_a_node_is_its_innermost_process() -> None:
         for p in node_processes("racc_test_probe_node"):
             p.kill()
         outer.wait(5)
+
+
+def test_the_ros2_actuator_starts_detached_stops_politely_and_kills(tmp_path: Path) -> None:
+    import os
+    import signal
+
+    from rac.ros2.repairer import Ros2Actuator
+    from rac.runtime.detached import Detached
+
+    actuator = Ros2Actuator.__new__(Ros2Actuator)  # no rclpy session: switching is not tested
+    actuator.launch_file, actuator.entries, actuator.detached = None, {}, Detached()
+    sleeper = f"{sys.executable} -c 'import time; time.sleep(60)' --ros-args -r __node:={{node}}"
+    actuator.restart = sleeper
+    os.environ["ROS_LOG_DIR"] = str(tmp_path)
+    try:
+        note = actuator.start_node("racc_test_sleeper")
+    finally:
+        del os.environ["ROS_LOG_DIR"]
+    pid = actuator.detached.pid("racc_test_sleeper")
+    assert pid is not None and f"pid {pid}" in note and "keeps running when racc stops" in note
+    assert os.getsid(pid) == pid != os.getsid(0)  # its own session: it outlives racc
+    assert [p.pid for p in node_processes("racc_test_sleeper")] == [pid]
+    assert "SIGINT" in actuator.stop_node("racc_test_sleeper")
+    actuator.detached.procs["racc_test_sleeper"].wait(10)
+    # A node racc did not start and that ignores SIGINT (frozen, or stubborn) is killed.
+    stubborn = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            "import signal, time; signal.signal(signal.SIGINT, signal.SIG_IGN); time.sleep(60)",
+            "__node:=racc_test_stubborn",
+        ]
+    )
+    try:
+        time.sleep(0.5)
+        assert "SIGKILL" in actuator.kill_node("racc_test_stubborn")
+        assert stubborn.wait(10) == -signal.SIGKILL
+    finally:
+        if stubborn.poll() is None:
+            stubborn.kill()
+    # No process left and not in the graph: it stopped (the observers confirm it).
+    assert "it stopped" in actuator.kill_node("racc_test_nowhere")
+    # In the graph without a local process: on another machine, out of reach.
+    actuator._graph = lambda: {"racc_test_remote"}  # type: ignore[method-assign]
+    with pytest.raises(RacError) as err:
+        actuator.kill_node("racc_test_remote")
+    assert err.value.diagnostics[0].code == "RAC124"

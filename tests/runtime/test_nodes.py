@@ -17,8 +17,16 @@ from rac.passes.observers import DIAGNOSTICS_TOPIC
 from rac.pipeline import compile_model
 from rac.runtime.diagnoser import Diagnoser
 from rac.runtime.nodes import RepairJob, run_engine_node, run_repair_node
-from rac.runtime.repairer import Settings
-from rac.runtime.status import DIAGNOSIS, OBSERVATIONS, REPAIR_LOG, Row, literal_row, row_diagnosis
+from rac.runtime.repairer import Mode, Settings
+from rac.runtime.status import (
+    DIAGNOSIS,
+    OBSERVATIONS,
+    REPAIR_LOG,
+    REPAIR_PLAN,
+    Row,
+    literal_row,
+    row_diagnosis,
+)
 from rac.targets import EmitOptions, emit_all
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -104,6 +112,9 @@ class Robot:
     def stop_node(self, node: str) -> None:
         self.calls.append(("stop_node", node))
 
+    def kill_node(self, node: str) -> None:
+        self.calls.append(("kill_node", node))
+
     def start_node(self, node: str) -> None:
         self.calls.append(("start_node", node))
 
@@ -121,16 +132,50 @@ def test_the_repair_node_acts_on_the_diagnosis_and_logs_it(model_yaml: Path) -> 
     def started(bus: FakeBus) -> bool:
         if bus.ticks == 3:
             bus.rows_callbacks[DIAGNOSIS](diagnosis)
-        return ("start_node", "jaguar_node") in robot.calls
+        return ("start_node", "jaguar_node") in robot.calls and len(robot.calls) == 1
 
     bus = FakeBus(started)
-    job = RepairJob(theory, "tedusar", None, {}, {}, Settings(), rate_hz=50.0)
+    settings = Settings(confirm_s=0.1, startup_grace_s=0.0)
+    job = RepairJob(theory, "tedusar", None, {}, {}, settings, rate_hz=50.0)
     run_repair_node(bus, robot, job, after_tick=lambda: reaped.append(1))
+    time.sleep(0.1)  # the request runs on a thread of its own
     assert robot.calls == [("start_node", "jaguar_node")]
     assert set(bus.rows_callbacks) == {OBSERVATIONS, DIAGNOSIS}
-    assert bus.latched == {REPAIR_LOG: True}
+    assert set(bus.text_callbacks) == {"~confirm"}
+    assert bus.latched == {REPAIR_LOG: True, DIAGNOSTICS_TOPIC: False, REPAIR_PLAN: True}
     actions = [r.name for rows in bus.published[REPAIR_LOG] for r in rows]
-    assert actions[:2] == ["plan", "start_node"], actions
-    assert reaped and bus.logged[0][1] == "racc repairer: launch file (none), " + (
-        f"{len(theory.components)} components"
+    assert actions[:1] == ["plan"], actions
+    (status,) = bus.published[DIAGNOSTICS_TOPIC][0]
+    assert status.name == "racc_test: repair" and status.value("mode") == "act"
+    assert bus.published[REPAIR_PLAN] == [[]]  # nothing awaits an operator
+    assert reaped and bus.logged[0][1].startswith(
+        f"racc repairer: launch file (none), {len(theory.components)} components, mode act"
     )
+
+
+def test_an_advised_plan_is_published_and_executed_once_confirmed(model_yaml: Path) -> None:
+    theory = load_theory(str(model_yaml))
+    robot = Robot()
+    diagnoser = Diagnoser(theory, "tedusar", "engine")
+    diagnoser.observe(CRASH)
+    diagnosis = list(diagnoser.tick().rows)
+
+    def confirmed(bus: FakeBus) -> bool:
+        if bus.ticks == 3:
+            bus.rows_callbacks[DIAGNOSIS](diagnosis)
+        plans = bus.published.get(REPAIR_PLAN, [])
+        if len(plans) == 2 and plans[-1] and "~confirm" in bus.text_callbacks:
+            bus.text_callbacks["~confirm"](plans[-1][0].value("plan"))
+        return bool(robot.calls)
+
+    bus = FakeBus(confirmed)
+    settings = Settings(confirm_s=0.1, startup_grace_s=0.0, mode=Mode.ADVISE)
+    job = RepairJob(theory, "tedusar", None, {}, {}, settings, rate_hz=50.0)
+    run_repair_node(bus, robot, job)
+    time.sleep(0.1)
+    assert robot.calls == [("start_node", "jaguar_node")]
+    plans = bus.published[REPAIR_PLAN]
+    assert plans[0] == [] and plans[1][0].message == "start_node(jaguar_node)"
+    assert plans[-1] == []  # withdrawn from the topic once confirmed
+    actions = [r.name for rows in bus.published[REPAIR_LOG] for r in rows]
+    assert actions[:2] == ["advise", "confirm"], actions

@@ -189,7 +189,9 @@ def _executor(
         script,
         log.append,
         clock=lambda: now[0],
-        settings=Settings(step_timeout_s=1.0, verify_timeout_s=2.0),
+        settings=Settings(
+            confirm_s=0.5, startup_grace_s=0.0, step_timeout_s=1.0, verify_timeout_s=2.0
+        ),
     )
     box.append(ex)
     return ex, script, log, now
