@@ -28,6 +28,7 @@ A value fault needs a publisher whose values can be changed; the bags' cannot, s
 from __future__ import annotations
 
 import argparse
+import itertools
 import os
 import shlex
 import signal
@@ -49,6 +50,7 @@ from soak_support import (  # noqa: E402
     all_ok_since,
     cpu_load,
     episodes,
+    faulty_share,
     kill_pid,
     logged_done,
     named_since,
@@ -66,6 +68,7 @@ class SoakFigures:
     plans: int
     actions: int
     episodes: int
+    faulty: float  # share of the soak with a diagnosis standing
     detail: list[str] = field(default_factory=list)
 
     def per_hour(self, n: int) -> float:
@@ -114,6 +117,7 @@ def soak(graph: Graph, model: str, load: int, seconds: float, settle: float) -> 
         len([r for r in acted if r[1] == "plan"]),
         len(acted),
         len(found),
+        faulty_share(graph.watch, start, end),
     )
     figures.detail = [
         f"{t - start:7.1f} s  plan: {msg}" for t, n, _, _, msg in acted if n == "plan"
@@ -247,6 +251,55 @@ def learn_model(graph: Graph, seconds: int) -> Path:
     return learned
 
 
+TOPICS = (
+    "/imu/data",
+    "/jackal_velocity_controller/odom",
+    "/imu_relayed",
+    "/odom_throttled",
+    "/joint_states",
+    "/tf",
+)
+
+
+def topic_rates(graph: Graph, loads: list[int], seconds: float, window: float = 2.0) -> None:
+    """The graph's rates as an independent subscriber in this process receives them (no
+    racc running), per load: mean, and lowest and highest over ``window`` s windows."""
+    import rospy
+
+    os.environ["ROS_MASTER_URI"] = graph.env["ROS_MASTER_URI"]
+    rospy.init_node("racc_soak_rates", anonymous=True, disable_signals=True)
+    arrivals: dict[str, list[float]] = {t: [] for t in TOPICS}
+    for topic in TOPICS:
+        rospy.Subscriber(topic, rospy.AnyMsg, lambda _, t=topic: arrivals[t].append(time.time()))
+    robot = graph.start_robot("rates_robot.log")
+    try:
+        graph.wait_nodes(NODES, 30)
+        time.sleep(3.0)
+        print(f"\ntopic rates a rospy subscriber sees, Hz (mean; lowest-highest in {window:g} s)")
+        for load in loads:
+            with cpu_load(graph.procs, load):
+                for seen in arrivals.values():
+                    seen.clear()
+                start = time.time()
+                time.sleep(seconds)
+                end = time.time()
+            row = []
+            for topic, seen in arrivals.items():
+                n = int((end - start) // window)
+                counts = [
+                    sum(start + i * window <= t < start + (i + 1) * window for t in seen) / window
+                    for i in range(n)
+                ]
+                gaps = [b - a for a, b in itertools.pairwise(seen)]
+                row.append(
+                    f"{topic} {len(seen) / (end - start):.1f} ({min(counts, default=0):.1f}-"
+                    f"{max(counts, default=0):.1f}, gap {max(gaps, default=0):.2f} s)"
+                )
+            print(f"  {load:>3} % load: " + "; ".join(row))
+    finally:
+        stop_robot_and_runtime(graph, robot)
+
+
 def median(values: list[float]) -> str:
     return f"{statistics.median(values):.2f}" if values else "-"
 
@@ -255,14 +308,14 @@ def report(soaks: list[SoakFigures], fault_figures: list[FaultFigures], argv: li
     print("\nhealthy soak (false repairs and false diagnosis episodes; bring-up excluded)")
     print(
         f"{'model':<12} {'load %':>6} {'s':>6} {'settled s':>9} {'bring-up plans':>14} "
-        f"{'plans':>5} {'plans/h':>8} {'episodes':>8} {'episodes/h':>10}"
+        f"{'plans':>5} {'plans/h':>8} {'episodes':>8} {'episodes/h':>10} {'faulty %':>8}"
     )
     for s in soaks:
         settled = f"{s.settled:.1f}" if s.settled is not None else "never"
         print(
             f"{s.model:<12} {s.load:>6} {s.seconds:>6.0f} {settled:>9} {s.bring_up_plans:>14} "
             f"{s.plans:>5} {s.per_hour(s.plans):>8.0f} {s.episodes:>8} "
-            f"{s.per_hour(s.episodes):>10.0f}"
+            f"{s.per_hour(s.episodes):>10.0f} {100 * s.faulty:>8.0f}"
         )
         for line in s.detail[:12]:
             print(f"    {line}")
@@ -329,6 +382,11 @@ def main() -> None:
         "--learn-loads",
         help="the load levels of the learned model's soak (default: those of --loads)",
     )
+    parser.add_argument(
+        "--rates",
+        action="store_true",
+        help="only the topics' rates at each load, seen by a plain subscriber (default: off)",
+    )
     parser.add_argument("-q", action="store_true", help="no progress lines (default: shown)")
     args = parser.parse_args()
     QUIET = args.q or not sys.stderr.isatty()
@@ -344,6 +402,9 @@ def main() -> None:
             tempfile.TemporaryDirectory(prefix="racc_soak_") as tmp,
             real_graph(Path(tmp), args.model or MODEL) as graph,
         ):
+            if args.rates:
+                topic_rates(graph, loads, args.seconds)
+                return
             name = args.model.stem if args.model else "hand-made"
             for load in loads:
                 soaks.append(soak(graph, name, load, args.seconds, args.settle))

@@ -314,3 +314,19 @@ def shown_plans(acted: list[LogRow], since: float) -> str:
     """The plans among ``acted``, one per line, with their time from ``since``."""
     lines = [f"    {t - since:6.1f} s  {msg}" for t, name, _, _, msg in acted if name == "plan"]
     return f"{len(lines)} plans, {len(acted)} actions" + "".join("\n" + x for x in lines)
+
+
+def faulty_share(watch: Watch, start: float, end: float) -> float:
+    """The share of [start, end) during which /diagnosis named a fault."""
+    with watch.lock:
+        before = [d for t, d in watch.diagnosis if t < start]
+        faulty, since, total = bool(before and before[-1]), start, 0.0
+        for t, d in watch.diagnosis:
+            if not start <= t < end:
+                continue
+            if faulty:
+                total += t - since
+            faulty, since = bool(d), t
+        if faulty:
+            total += end - since
+    return total / (end - start) if end > start else 0.0
