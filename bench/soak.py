@@ -4,6 +4,7 @@
     .venv-ros1/bin/python bench/soak.py --seconds 300 --loads 0,70,90 --repeats 5
     .venv-ros1/bin/python bench/soak.py --learn 60            # also a model learned from it
     .venv-ros1/bin/python bench/soak.py --model learned.ram   # any model of this graph
+    .venv-ros1/bin/python bench/soak.py --rates --loads 0,70,90 --seconds 40   # the graph alone
 
 The graph (tests/ros1/real_graph.py): Debian's ``rosbag play --loop`` of a Jackal's IMU and
 odometry (50 Hz) and of a PR2's joint states (100 Hz, bursty), topic_tools relay and
@@ -14,8 +15,10 @@ process group.
 Healthy soak, per load level: the robot and racc's runtime are launched together, and once
 every observation is ok (or after --settle s) stress-ng loads both cores at the level for
 --seconds; the repair plans and the diagnosis episodes (/diagnosis turning non-empty) in
-that time are counted and given per hour.  Nothing is wrong with the graph, so each is
-false.
+that time are counted and given per hour, with the share of the time a diagnosis stood
+(an episode under way when the soak starts counts).  Nothing is wrong with the graph, so
+each is false.  ``--rates`` checks that: the topics' rates as a plain rospy subscriber
+receives them, without racc, at each load.
 
 Faults, --repeats each, on the healthy graph at no extra load: ``crash`` (SIGKILL of the
 relay), ``freeze`` (SIGSTOP of the Jackal's bag player), ``rate`` (the throttle replaced by
