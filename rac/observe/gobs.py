@@ -30,8 +30,8 @@ Decisions where the text leaves room:
   over the window alone would end with a whole clump but without the gap after it, which
   makes a healthy topic read about one clump too fast in every check.
 - **The occurrence's time**: receive time, or the publisher's header stamp while stamps
-  are trusted (:class:`StampTrust`: present, strictly increasing, and running at the rate
-  of the arrivals over ``agree_s``).  The window is placed by receive time either way;
+  are trusted (:class:`StampTrust`: present, increasing but for a bag's loop, and running
+  at the rate of the arrivals over ``agree_s``).  The window is placed by receive time either way;
   only μ is taken from the stamps, so a receiver that was late and got the messages in a
   clump still sees the publisher's cadence.
 - **The bound** |μ − δ| ≤ σ is taken with a slack of :data:`RESOLUTION_S` (1 ns, the
@@ -45,8 +45,14 @@ Decisions where the text leaves room:
   at each instant E + G + (k − 1)·δ, k = 1, 2, … that passes without an occurrence, where
   G = max(1.5·δ, ``silence_s``) (with ``silence_s`` 0 the instants are E + (k + ½)·δ).
   Each such verdict carries the instant it was counted at.  When an occurrence comes after
-  a counted silence, the stale window is dropped and a new one starts at that occurrence
-  (as line 2 does), so stale intervals never count as good ones.
+  a silence that has turned the verdict negative, the stale window is dropped and a new
+  one starts at that occurrence (as line 2 does), so stale intervals never count as good
+  ones.  On a topic whose grace G is ``silence_s`` (faster than 1/(1.5·``silence_s``), 3 Hz
+  at the default), an occurrence that comes before the silence's not_ok was due (G + θ·δ
+  + ``hold_s``) takes the silence's violations back, and the window goes on with the gap in
+  it: a delivery that paused for a fraction of a second and resumed is judged by the mean,
+  as a burst.  A slower topic's silence is counted in intervals and stands (an irregular
+  topic's long gap is what its frequency observer is for).
 - **Hysteresis**: the θ rule gives a candidate verdict; it is reported only after it has
   stood for ``hold_s`` (:class:`rac.observe.base.Hold`).  At one check per message, θ
   alone is 50 ms at 100 Hz.
@@ -82,6 +88,7 @@ AGREE_BLOCKS = 2  # the agreement history, in blocks of agree_s / AGREE_BLOCKS
 class Occurrence(NamedTuple):
     t: float  # receive time
     stamp: float | None  # the publisher's header stamp
+    k: int  # how many occurrences came before it
 
 
 class StampTrust:
@@ -94,25 +101,34 @@ class StampTrust:
     its minimum unless every message in it was late; a stamp clock that runs at another
     rate (a bag played at another speed, stamps copied from an input) moves the envelope
     steadily, and trust ends once it has drifted by more than ``tolerance`` (a fraction)
-    over the history.  A missing, repeated or earlier stamp (two publishers, a bag that
-    loops) ends trust at once, and it starts again from that message.
+    over the history.  A missing stamp ends trust at once.  A stamp that is not later than
+    the one before is a jump back: a bag played with ``--loop`` starting over keeps the
+    trust it had (the history starts again from it, and the observer takes the mean over
+    the occurrences after the jump only), a second jump within ``agree_s`` (two publishers
+    on one topic) ends it.
     """
 
-    __slots__ = ("_blocks", "_last", "block_s", "tolerance", "trusted")
+    __slots__ = ("_blocks", "_last", "agree_s", "block_s", "jump", "tolerance", "trusted")
 
     def __init__(self, agree_s: float, tolerance: float) -> None:
+        self.agree_s = agree_s
         self.block_s = agree_s / AGREE_BLOCKS
         self.tolerance = tolerance
         self.trusted = False
+        self.jump: tuple[float, int] | None = None  # (receive time, k) of the last jump back
         self._last: float | None = None
         self._blocks: deque[list[float]] = deque()  # [first receive time, least offset]
 
-    def add(self, t: float, stamp: float | None, measure: bool) -> None:
+    def add(self, now: Occurrence, measure: bool) -> None:
         """One occurrence; ``measure`` False while its receive time is in doubt (starved)."""
+        t, stamp = now.t, now.stamp
         if stamp is None or (self._last is not None and stamp <= self._last):
+            if stamp is None or (self.jump is not None and t - self.jump[0] < self.agree_s):
+                self.trusted = False
+            if stamp is not None:
+                self.jump = (t, now.k)
             self._last = stamp
             self._blocks.clear()
-            self.trusted = False
             return
         self._last = stamp
         if not measure:
@@ -149,6 +165,9 @@ class GObs:
         self.needs = Needs(topics=((self.topic, ()),))
         self._half = self.window / 2
         self._grace = max(1.5 * self.delta, self.silence_s)
+        # A topic whose silence is timed in seconds rather than intervals (faster than
+        # 3 Hz at silence_s 0.5 s) has its short silences taken back (module docstring).
+        self._pauses = self.silence_s > 1.5 * self.delta
         self._mismatch = Mismatch(p.count("mismatch_th", DEFAULT_MISMATCH_THRESHOLD))
         self._hold = Hold(p.atom(), self.hold_s)
         # Stamps and receive times may disagree by half the band before the stamps lose.
@@ -159,6 +178,8 @@ class GObs:
         self._end = math.nan  # E: the window's end when the last occurrence came
         self._silent = 0  # violations counted for the current silence
         self._stale = False  # a silence was counted since the last occurrence
+        self._count_before_silence = 0  # the θ counter when the silence began to count
+        self._k = 0  # occurrences so far
         self._starved = False
         self._settled = -math.inf  # timing is trusted again from here on
 
@@ -171,8 +192,16 @@ class GObs:
         if not isinstance(event, Message) or event.topic != self.topic:
             return []
         out = self._count_silence(event.t)
-        now = Occurrence(event.t, event.stamp if self.stamps else None)
-        self._trust.add(now.t, now.stamp, measure=not self._in_doubt(now.t))
+        now = Occurrence(event.t, event.stamp if self.stamps else None, self._k)
+        self._k += 1
+        self._trust.add(now, measure=not self._in_doubt(now.t))
+        if self._pauses and self._stale and self._hold.positive:
+            # The silence ended before its not_ok was due (the hold): a pause in delivery,
+            # not a stop.  Its violations go, and the window goes on with the gap, so that
+            # the messages that waited are judged with it, as a burst.
+            self._mismatch.count = self._count_before_silence
+            self._hold.since = None
+            self._stale = False
         if not self._left or self._stale:
             # The first occurrence (line 2), or the first after a counted silence.
             self._left.clear()
@@ -225,8 +254,9 @@ class GObs:
     def _check(self, closing: Occurrence, out: list[Verdict]) -> None:
         first = self._left[0]
         n = len(self._left) + len(self._right)
-        if self._trust.trusted and closing.stamp is not None and first.stamp is not None:
-            mu, slack = (closing.stamp - first.stamp) / n, STAMP_RESOLUTION_S
+        stamped = self._stamped_mean(closing)
+        if stamped is not None:
+            mu, slack = stamped, STAMP_RESOLUTION_S
         else:
             mu, slack = (closing.t - first.t) / n, RESOLUTION_S
         good = abs(mu - self.delta) <= self.dev + slack
@@ -234,6 +264,22 @@ class GObs:
             self._mismatch.check(good)
         positive = self._mismatch.count <= self._mismatch.theta
         self._hold.update(closing.t, positive, out, self._may_fall(closing.t))
+
+    def _stamped_mean(self, closing: Occurrence) -> float | None:
+        """μ from the stamps, when they are trusted and the window has enough of them after
+        the last jump back (None: take receive times)."""
+        if not self._trust.trusted or closing.stamp is None:
+            return None
+        first, n = self._left[0], len(self._left) + len(self._right)
+        jump = self._trust.jump
+        if jump is not None and first.k < jump[1]:  # the window holds the jump
+            after = [o for o in (*self._left, *self._right) if o.k >= jump[1]]
+            if len(after) < max(2, self.min_count):
+                return None
+            first, n = after[0], len(after)
+        if first.stamp is None:
+            return None
+        return (closing.stamp - first.stamp) / n
 
     def _slide(self, closing: Occurrence) -> None:
         """O_mid moves on, one occurrence at a time, until ``closing`` falls in the window
@@ -257,6 +303,8 @@ class GObs:
         due = math.floor((t - self._end - self._grace) / self.delta) + 1
         while self._silent < due:
             instant = self._end + self._grace + self._silent * self.delta
+            if not self._stale:
+                self._count_before_silence = self._mismatch.count
             self._silent += 1
             self._stale = True
             positive = self._mismatch.check(False)

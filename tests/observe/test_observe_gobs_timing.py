@@ -280,3 +280,34 @@ def test_starvation_does_not_stop_a_recovery() -> None:
     obs.starved(12.0, True)
     out += run(obs, regular(100.0, 12.0, 20.0))
     assert texts(out) == ["ok(x)", "not_ok(x)", "ok(x)"]
+
+
+def paused(trace: Trace, at: float, pause: float) -> Trace:
+    """The same messages; those published in [at, at + pause) are received at at + pause."""
+    return [(max(t, at + pause) if at <= t < at + pause else t, s) for t, s in trace]
+
+
+def test_a_delivery_that_pauses_for_less_than_silence_and_hold_is_not_a_stop() -> None:
+    # 0.9 s without a message, then the ones that waited: the silence's violations are
+    # taken back when the messages come before its not_ok was due (0.5 + 0.06 + 0.5 s).
+    trace = paused(regular(100.0, 0.0, 40.0), 20.0, 0.9)
+    obs = gobs(100.0)
+    assert texts(run(obs, trace)) == ["ok(x)"]
+    # Longer than that, it is a stop (and the topic comes back).
+    assert texts(run(gobs(100.0), paused(regular(100.0, 0.0, 40.0), 20.0, 1.5))) == [
+        "ok(x)",
+        "not_ok(x)",
+        "ok(x)",
+    ]
+
+
+def test_a_bag_that_loops_keeps_its_stamps_trusted() -> None:
+    # rosbag play --loop of a 16 s recording: the stamps jump back by 16 s at every seam,
+    # where the player pauses for 0.9 s and then catches up.
+    trace: Trace = []
+    for loop in range(4):
+        part = regular(100.0, 16.0 * loop, 16.0 * (loop + 1), stamp0=1.3e9 - 16.0 * loop)
+        trace += paused(part, 16.0 * loop, 0.9 if loop else 0.0)
+    obs = gobs(100.0)
+    assert texts(run(obs, trace)) == ["ok(x)"]
+    assert obs.stamped
