@@ -8,6 +8,7 @@ started here is stopped by pid.
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import signal
 import socket
@@ -118,7 +119,7 @@ def test_racc_run_and_watch_show_a_crash_repaired_and_stop_cleanly(
         assert wait_for(logs["watch"], "diagnosis     no fault", 20, crashed) is not None
         run_text = logs["run"].read_text()
         assert "diagnosis_rate:=2" in run_text and "started racc_board_client" in run_text
-        pids = [int(x.split(")")[0]) for x in run_text.split("(pid ")[1:]]
+        pids = [int(p) for p in re.findall(r"started racc_\w+ \(pid (\d+)\)", run_text)]
         assert len(pids) == 4
     finally:
         codes = {name: stop(procs[name]) for name in ("run", "watch", "demo") if name in procs}

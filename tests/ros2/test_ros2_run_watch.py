@@ -10,6 +10,7 @@ reads.  Everything started here is stopped by pid.
 from __future__ import annotations
 
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -110,7 +111,7 @@ def test_racc_run_and_watch_on_ros2_show_a_crash_repaired_and_stop_cleanly(
         assert done is not None, logs["watch"].read_text()
         run_text = logs["run"].read_text()
         assert "started racc_board_client" in run_text
-        pids = [int(x.split(")")[0]) for x in run_text.split("(pid ")[1:]]
+        pids = [int(p) for p in re.findall(r"started racc_\w+ \(pid (\d+)\)", run_text)]
         assert len(pids) == 4
     finally:
         codes = {name: stop(procs[name]) for name in ("run", "watch", "demo") if name in procs}
