@@ -10,10 +10,20 @@ import json
 import math
 import random
 import re
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from fuzz_cases import CORPUS, KINDS, make_case, mutate_text, run_case, seeds_ram, seeds_yaml
+from fuzz_cases import (
+    CORPUS,
+    KINDS,
+    make_case,
+    mutate_text,
+    remove_base_bags,
+    run_case,
+    seeds_ram,
+    seeds_yaml,
+)
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -144,6 +154,13 @@ def test_literal_mutants_never_crash() -> None:
     for seed in range(3000):
         text = make_case("literal", seed).text
         _clean(lambda text=text: parse_literal(text, theory))
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _base_recordings_removed() -> Iterator[None]:
+    """The damaged-bag kinds' base recordings (made once) go when the module is done."""
+    yield
+    remove_base_bags()
 
 
 @pytest.mark.parametrize("kind", KINDS)
