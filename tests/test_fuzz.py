@@ -223,3 +223,11 @@ def test_mutation_helper_is_deterministic() -> None:
     text = seeds_ram()[0]
     assert mutate_text(text, random.Random(1)) == mutate_text(text, random.Random(1))
     assert math.isfinite(len(text))
+
+
+@pytest.mark.parametrize("seed", [4743, 5469])
+def test_sqlite3_rows_whose_data_is_not_a_blob(seed: int, tmp_path: Path) -> None:
+    """bench/fuzz.py's two crashes in 10,000 damaged sqlite3 bags: a row whose data column
+    reads NULL or text gave a TypeError (exit 70), now RAC080."""
+    outcome, detail = run_case(make_case("sqlite3", seed), tmp_path)
+    assert outcome == "error" and "error[RAC080]" in detail and "is not bytes" in detail, detail
