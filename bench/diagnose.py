@@ -13,6 +13,19 @@ propagation), a single-fault diagnosis (all minimal diagnoses) and all minimal d
 cardinality 2 with two independent faults, and (beyond the issue) all minimal diagnoses of a
 single symptom with nothing else observed, where every component upstream is a candidate;
 then the 10k/1k ratio of each figure.
+
+Then the scaling of two shapes whose answer grows with the model (issue 27), at 1k, 4k and
+20k components (``--scaling`` picks the sizes, ``--scaling-only`` skips the figures above):
+
+- a chain ``NAB(c_i), ok(s_{i-1}) -> ok(s_i)`` with ``ok(s0)`` and ``not ok(sN)`` observed:
+  one minimal conflict (the whole chain) and n single-fault diagnoses;
+- a wide fan-in: n components ``NAB(c_i), ok(in_i) -> ok(t_i)`` feeding one fusion
+  ``NAB(f), ok(t_1), ..., ok(t_n) -> ok(out)``, every input ok and ``out`` not: n + 1
+  single-fault diagnoses;
+
+each diagnosed in full and up to cardinality 2, with the 20k/1k ratio of each time (linear
+is 20).  The chain took 296 s at 20k (a consistency check per candidate, each as long as the
+chain).
 """
 
 from __future__ import annotations
@@ -140,10 +153,83 @@ def measure(components: int, repeat: int) -> dict[str, Timing]:
     }
 
 
+def chain_yaml(n: int) -> str:
+    """A model.yaml chain of n components (see the module's docstring)."""
+    props = "".join(f"  - ok(s{i})\n" for i in range(n + 1))
+    rules = "".join(f"  - NAB(c{i}), ok(s{i - 1}) -> ok(s{i})\n" for i in range(1, n + 1))
+    return f"ab: AB\nnab: NAB\nneg_prefix: not_\nprops:\n{props}rules:\n{rules}"
+
+
+def fan_in_yaml(n: int) -> str:
+    """A model.yaml of n components fused by one more (see the module's docstring)."""
+    props = "".join(f"  - ok(in{i})\n" for i in range(n)) + "  - ok(out)\n"
+    rules = "".join(f"  - NAB(c{i}), ok(in{i}) -> ok(t{i})\n" for i in range(n))
+    fused = ", ".join(f"ok(t{i})" for i in range(n))
+    rules += f"  - NAB(f), {fused} -> ok(out)\n"
+    return f"ab: AB\nnab: NAB\nneg_prefix: not_\nprops:\n{props}rules:\n{rules}"
+
+
+def scaling_case(shape: str, n: int) -> tuple[Theory, list[Any]]:
+    from rac.diagnosis import Literal
+    from rac.diagnosis.model_yaml import parse_model_yaml
+    from rac.logic import Atom
+
+    if shape == "chain":
+        theory = parse_model_yaml(chain_yaml(n), "chain.yaml")
+        observed = [("s0", True), (f"s{n}", False)]
+    else:
+        theory = parse_model_yaml(fan_in_yaml(n), "fan_in.yaml")
+        observed = [*((f"in{i}", True) for i in range(n)), ("out", False)]
+    # built directly: parse_literal looks the atom up among all the theory's atoms each time
+    return theory, [Literal(Atom("ok", (s,)), positive) for s, positive in observed]
+
+
+def measure_scaling(sizes: list[int], repeat: int) -> None:
+    """Chain and fan-in: diagnosis time per size, and the last size's ratio to the first."""
+    rows: dict[str, list[float]] = {}
+    for shape in ("chain", "fan-in"):
+        for n in sizes:
+            theory, observed = scaling_case(shape, n)
+            compile_theory(theory)  # the index is built once per model, not per diagnosis
+            found = diagnose(theory, observed)
+            expected = n if shape == "chain" else n + 1
+            assert len(found.diagnoses) == expected, (shape, n, len(found.diagnoses))
+            assert all(len(d) == 1 for d in found.diagnoses)
+            for card in (None, 2):
+                name = f"{shape}, all diagnoses" + (" <= 2" if card else "")
+                best, _ = timed(lambda t=theory, o=observed, c=card: diagnose(t, o, c), repeat)
+                rows.setdefault(name, []).append(best)
+                print(f"  {name:<28} n={n:>6,}: {best / 1000:8.3f} s", flush=True)
+    print(f"\nbest of {repeat} runs, in s; load average {os.getloadavg()[0]:.1f}")
+    head = "".join(f"{n:>10,}" for n in sizes)
+    print(f"{'shape':<28}{head} {f'{sizes[-1] // 1000}k/{sizes[0] // 1000}k':>9}")
+    for name, times in rows.items():
+        cells = "".join(f"{t / 1000:>10.3f}" for t in times)
+        print(f"{name:<28}{cells} {times[-1] / times[0]:>9.1f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5, help="runs per figure (median)")
+    parser.add_argument(
+        "--scaling",
+        type=int,
+        nargs="+",
+        default=[1000, 4000, 20000],
+        help="chain and fan-in sizes (default 1000 4000 20000)",
+    )
+    parser.add_argument(
+        "--scaling-only", action="store_true", help="only the chain and fan-in scaling"
+    )
     args = parser.parse_args()
+    if not args.scaling_only:
+        _synthetic_figures(args.repeat)
+    print("\nchain and fan-in scaling:")
+    measure_scaling(args.scaling, max(1, min(args.repeat, 3)))
+
+
+def _synthetic_figures(repeat: int) -> None:
+    args = argparse.Namespace(repeat=repeat)
     results = {size: measure(size, args.repeat) for size in SIZES}
     small, large = results[SIZES[0]], results[SIZES[1]]
     print(f"\nbest (median) of {args.repeat} runs, in ms; load average {os.getloadavg()[0]:.1f}")

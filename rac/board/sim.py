@@ -38,6 +38,9 @@ from rac.board.stream import FrameDecoder
 
 INCOMPLETE_AFTER_S = 0.5  # issue 6: idling this long inside a frame is ACK 2
 MAX_CLIENTS = 32
+# A connection that completes no frame this long after connecting is closed: a real client
+# sends BRD or RQS at once, and 32 idle (slowloris) connections locked every client out.
+FIRST_FRAME_S = 10.0
 MAX_BUFFERED = 1 << 20  # a client that stops reading is dropped past this backlog
 READ_SIZE = 4096
 DRAIN_TIMEOUT_S = 5.0  # a client that reads nothing for this long is dropped
@@ -194,11 +197,19 @@ class BoardSimulator:
 
     async def _read_frames(self, reader: asyncio.StreamReader, session: Session) -> None:
         decoder = FrameDecoder()
+        loop = asyncio.get_running_loop()
+        first_frame_by: float | None = loop.time() + FIRST_FRAME_S  # None once one came
         while True:
             timeout = INCOMPLETE_AFTER_S if decoder.in_frame else None
+            if first_frame_by is not None:
+                left = max(0.0, first_frame_by - loop.time())
+                timeout = left if timeout is None else min(timeout, left)
             try:
                 chunk = await asyncio.wait_for(reader.read(READ_SIZE), timeout)
             except (TimeoutError, asyncio.TimeoutError):
+                if first_frame_by is not None and loop.time() >= first_frame_by:
+                    self.log(f"{session.name}: no complete frame in {FIRST_FRAME_S:g} s: closed")
+                    return
                 self.log(f"{session.name}: ACK 2: frame incomplete for {INCOMPLETE_AFTER_S} s")
                 decoder.reset()
                 session.send(Ack(AckCode.INCOMPLETE))
@@ -206,5 +217,6 @@ class BoardSimulator:
             if not chunk:
                 return
             for frame in decoder.feed(chunk):
+                first_frame_by = None
                 session.handle(frame)
             await asyncio.wait_for(session.writer.drain(), DRAIN_TIMEOUT_S)

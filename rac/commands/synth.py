@@ -125,6 +125,32 @@ def properties_path(run: Path) -> Path:
     return beside(run, ".properties.csv")
 
 
+_STAGING = ".racc-synth-"  # + the writing process's id + a random part
+
+
+def _remove_stale_staging(parent: Path) -> None:
+    """Delete the staging directories a killed ``racc synth`` left in ``parent``: those
+    whose process no longer runs (a running one's, another synth's, stays)."""
+    try:
+        entries = [p for p in parent.iterdir() if p.name.startswith(_STAGING) and p.is_dir()]
+    except OSError:
+        return
+    for entry in entries:
+        pid_text = entry.name.removeprefix(_STAGING).partition("-")[0]
+        if pid_text.isdigit() and not _running(int(pid_text)):
+            shutil.rmtree(entry, ignore_errors=True)
+
+
+def _running(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return True  # another user's process, or not a process id: left alone
+    return True
+
+
 def _remove(path: Path) -> None:
     if path.is_dir() and not path.is_symlink():
         shutil.rmtree(path)
@@ -225,7 +251,9 @@ def run(args: argparse.Namespace) -> int:
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         # Write beside the target, then move into place: no half-written recording remains.
-        with tempfile.TemporaryDirectory(prefix=".racc-synth-", dir=out.parent) as tmp:
+        _remove_stale_staging(out.parent)
+        staging_prefix = f"{_STAGING}{os.getpid()}-"
+        with tempfile.TemporaryDirectory(prefix=staging_prefix, dir=out.parent) as tmp:
             staged = Path(tmp) / out.name
             count = write_recording(plan, staged)
             staged_csv = Path(tmp) / csv_path.name

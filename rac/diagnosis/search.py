@@ -70,32 +70,77 @@ class HittingSetDag:
                 found.add(index.component[assumed.pop()])
         return frozenset(found)
 
+    def _consistent_children(self, delta: frozenset[str], label: Conflict) -> frozenset[str]:
+        """The components c of ``label`` whose child Δ ∪ {c} is consistent, known without a
+        check each: when AB never matters (a monotone index), Δ ∪ {c} is consistent exactly
+        when NAB(c) is in every derivation of every contradiction under NAB(COMPS∖Δ), which
+        :meth:`Index.necessary` finds for all of them in one pass.  A label this small is
+        left to the checks, each as long as its component's cone.
+        """
+        index = self.index
+        if not index.monotone or len(label[0]) < _FEW_CHILDREN:
+            return frozenset()
+        candidates = [index.nab_id[c] for c in sorted(label[0])]
+        assumed = index.assignment(delta, strong=False)
+        found = index.necessary(self.base, assumed, candidates)
+        return frozenset(index.component[a] for a in found)
+
     def run(self, max_card: int | None) -> Search:
-        diagnoses: list[frozenset[str]] = []
+        found = _Diagnoses()
         necessary = self.necessary()
         singletons = [(frozenset([c]), frozenset[str]()) for c in sorted(necessary)]
         # every node below contains them, so they never label one: not kept for reuse
         level: set[frozenset[str]] = {necessary}
         card = len(necessary)
         cut: set[frozenset[str]] = set()
+        consistent: set[frozenset[str]] = set()  # children known consistent without a check
         while level:
             if max_card is not None and card > max_card:
                 cut = level
                 break
             children: set[frozenset[str]] = set()
             for delta in sorted(level, key=sorted):
-                if any(d <= delta for d in diagnoses):
+                if found.covers(delta):
                     continue
-                label = self._label(delta)
+                label = None if delta in consistent else self._label(delta)
                 if label is None:
-                    diagnoses.append(delta)
+                    found.add(delta)
                     continue
+                for comp in self._consistent_children(delta, label):
+                    consistent.add(delta | {comp})
                 for comp in label[0]:
                     children.add(delta | {comp})
             card += 1
             level = children
-        bounded = any(not any(d <= child for d in diagnoses) for child in cut)
-        return Search(tuple(diagnoses), (*singletons, *self.conflicts), bounded)
+        bounded = any(not found.covers(child) for child in cut)
+        return Search(tuple(found.all), (*singletons, *self.conflicts), bounded)
+
+
+# A node labelled with fewer components has its children checked one by one (each check costs
+# its component's cone); from this many on, one pass of Index.necessary over the closure.
+_FEW_CHILDREN = 16
+
+
+class _Diagnoses:
+    """The diagnoses found so far, in order, and whether one is inside a candidate: the
+    single-fault ones by a set look-up, not a scan (a chain of n components has n)."""
+
+    def __init__(self) -> None:
+        self.all: list[frozenset[str]] = []
+        self.singles: set[str] = set()
+        self.larger: list[frozenset[str]] = []
+
+    def add(self, delta: frozenset[str]) -> None:
+        self.all.append(delta)
+        if len(delta) == 1:
+            self.singles |= delta
+        else:
+            self.larger.append(delta)
+
+    def covers(self, delta: frozenset[str]) -> bool:
+        if not self.singles.isdisjoint(delta):
+            return True
+        return any(d <= delta for d in self.larger)
 
 
 def _assumptions(
@@ -145,8 +190,15 @@ def transversals(edges: Sequence[frozenset[str]]) -> list[frozenset[str]]:
     Used for duality: the minimal conflicts are the minimal hitting sets of the minimal
     diagnoses, so once every diagnosis is known the conflicts follow without more checks.
     """
+    edges = minimal_sets(edges)
+    # A one-element edge is in every hitting set: taken out first, the rest is what Berge's
+    # rounds grow (n single-fault diagnoses were n rounds over one growing set: quadratic).
+    # (minimal_sets left no other edge holding one of them, so they join each set at the end).
+    forced = frozenset(e for edge in edges if len(edge) == 1 for e in edge)
     current: list[frozenset[str]] = [frozenset()]
-    for edge in minimal_sets(edges):
+    for edge in edges:
+        if len(edge) == 1:
+            continue
         grown: list[frozenset[str]] = []
         for t in current:
             if t & edge:
@@ -154,4 +206,4 @@ def transversals(edges: Sequence[frozenset[str]]) -> list[frozenset[str]]:
             else:
                 grown.extend(t | {e} for e in edge)
         current = minimal_sets(grown)
-    return current
+    return [t | forced for t in current] if forced else current

@@ -255,6 +255,10 @@ def _read(
     # rosbags reads every connection when given none: none wanted means nothing to read.
     for conn, stamp, raw in reader.messages(connections=connections) if connections else ():
         count += 1
+        if not isinstance(raw, bytes | memoryview | bytearray):
+            # a damaged SQLite row: its data column reads NULL or text, not a blob
+            why = f"message {count} on {conn.topic} is not bytes: the database is damaged"
+            raise _fail(path, why)
         stamps[conn.topic].append(stamp)
         get = extract.get(conn.topic)
         if get is not None:
