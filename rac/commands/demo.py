@@ -25,6 +25,8 @@ from rac.runtime.demo import DEFAULT_PERIOD_S, DemoNode, fault_text, parse_demo_
 from rac.synth.faults import Fault
 
 STOP_S = 10.0
+# roslaunch gives its nodes 15 s after SIGINT, then SIGTERM: wait for all of that.
+ROSLAUNCH_STOP_S = 20.0
 BOARD_START_S = 20.0  # racc board-sim's start on a loaded machine
 
 
@@ -187,12 +189,40 @@ def run(args: argparse.Namespace) -> int:
             if p.poll() is None:
                 p.send_signal(signal.SIGINT)  # roslaunch ends its children on SIGINT
         for p in reversed(procs):
-            try:
-                p.wait(STOP_S)
-            except subprocess.TimeoutExpired:
-                p.kill()
+            _wait_or_kill(p)
         _stop_restarted_nodes(epoch)
     return 0
+
+
+def _wait_or_kill(proc: subprocess.Popen[bytes]) -> None:
+    """Wait for a process the demo started; one that outlives its time is killed, and the
+    nodes a roslaunch started go with it (killing roslaunch alone would orphan them, and the
+    sweep for restarted nodes would count them as a repair engine's)."""
+    import psutil
+
+    args = proc.args if isinstance(proc.args, list) else [proc.args]
+    program = Path(str(args[0])).name
+    wait_s = ROSLAUNCH_STOP_S if program == "roslaunch" else STOP_S
+    try:
+        proc.wait(wait_s)
+        return
+    except subprocess.TimeoutExpired:
+        pass
+    from rac.runtime.procs import STOP_SIGNALS, terminate
+
+    try:
+        children = [c.pid for c in psutil.Process(proc.pid).children(recursive=True)]
+    except psutil.Error:
+        children = []
+    proc.kill()
+    proc.wait()
+    for pid in children:
+        terminate(pid, STOP_SIGNALS)
+    print(
+        f"t={time.time():.3f} demo: {program} did not stop in "
+        f"{wait_s:.0f} s; stopped it and {count(len(children), 'process')} it started",
+        flush=True,
+    )
 
 
 def demo_processes(epoch: float) -> list[int]:
