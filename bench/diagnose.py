@@ -171,7 +171,7 @@ def fan_in_yaml(n: int) -> str:
 
 def scaling_case(shape: str, n: int) -> tuple[Theory, list[Any]]:
     from rac.diagnosis import Literal
-    from rac.diagnosis.model_yaml import parse_model_yaml
+    from rac.load.model_yaml import parse_model_yaml
     from rac.logic import Atom
 
     if shape == "chain":

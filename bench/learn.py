@@ -18,7 +18,7 @@ from pathlib import Path
 from rac.learn import LearnOptions, learn, observer_counts
 from rac.learn.fields import FieldSelector
 from rac.learn.properties import parse_properties, property_stats
-from rac.learn.recording import read_recording
+from rac.load.bags import read_recording
 from rac.parse import parse_ram
 from rac.pipeline import compile_model
 from rac.synth import SynthOptions, plan_recording, write_recording

@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 
 from rac.cli import main
-from rac.loader import load_model
+from rac.load.files import load_model
 
 
 def racc(*argv: str) -> None:

@@ -140,7 +140,7 @@ def _all_fields(base: Path, out: Path) -> None:
     from dataclasses import replace
 
     from rac.fmt import format_model
-    from rac.loader import load_model
+    from rac.load.files import load_model
 
     model = load_model(base)
     topics = tuple(replace(t, fields=()) for t in model.topics)

@@ -61,7 +61,7 @@ def synthetic_ram(nodes: int = 100) -> str:
 
 def in_process(model_path: Path, seconds: float) -> tuple[float, float]:
     """(percent of one core, messages per second) of the host fed in real time here."""
-    from rac.loader import load_model
+    from rac.load.files import load_model
     from rac.observe import NodeSample
     from rac.pipeline import compile_model
     from rac.runtime.demo import DemoNode

@@ -19,7 +19,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from rac.loader import load_model
+from rac.load.files import load_model
 from rac.observe import Event, Message, NodeSample, ObserverBank, PropertySample
 from rac.observe.gobs import GObs
 from rac.pipeline import compile_model

@@ -46,9 +46,10 @@ sys.path.insert(0, str(ROOT / "bench"))
 from compile import synthetic_model  # noqa: E402  (bench/compile.py)
 from machine import fits_note, last_level_cache, working_set  # noqa: E402  (bench/machine.py)
 
-from rac.diagnosis import compile_theory, diagnose, is_consistent, load_theory, predict  # noqa: E402
+from rac.diagnosis import compile_theory, diagnose, is_consistent, predict  # noqa: E402
 from rac.diagnosis.engine import Index  # noqa: E402
 from rac.diagnosis.theory import Theory  # noqa: E402
+from rac.load.theory import load_theory  # noqa: E402
 from rac.perf import paused_gc  # noqa: E402
 from rac.pipeline import compile_model  # noqa: E402
 from rac.targets import EmitOptions  # noqa: E402

@@ -22,9 +22,10 @@ import numpy as np
 from rac.ir import FieldRef
 from rac.learn.correlate import pair_matches
 from rac.learn.fields import FieldSelector
-from rac.learn.recording import TopicData, read_recording
+from rac.learn.recording import TopicData
 from rac.learn.trends import TopicTrends, topic_trends
-from rac.loader import load_model
+from rac.load.bags import read_recording
+from rac.load.files import load_model
 from rac.passes.observers import biqobs_params
 
 OCCURRENCES = 10

@@ -64,7 +64,7 @@ def seeds_ram() -> tuple[str, ...]:
 @cache
 def seeds_json() -> tuple[str, ...]:
     from rac.interchange import dumps
-    from rac.loader import load_model
+    from rac.load.files import load_model
 
     texts = [dumps(load_model(p)) for p in MODELS]
     texts += [p.read_text(encoding="utf-8") for p in sorted(CORPUS.glob("*.json"))]
@@ -73,7 +73,7 @@ def seeds_json() -> tuple[str, ...]:
 
 @cache
 def seeds_yaml() -> tuple[str, ...]:
-    from rac.loader import load_model
+    from rac.load.files import load_model
     from rac.pipeline import compile_model
     from rac.targets import EmitOptions, emit_all
 

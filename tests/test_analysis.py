@@ -10,8 +10,9 @@ import pytest
 from rac.analysis.analyze import analyze
 from rac.analysis.place import exact_cover_cost, place
 from rac.cli import main
-from rac.diagnosis import load_theory, simulate
+from rac.diagnosis import simulate
 from rac.errors import RacError
+from rac.load.theory import load_theory
 
 ROOT = Path(__file__).resolve().parent.parent
 TEDUSAR = str(ROOT / "models" / "tedusar.ram")
@@ -128,7 +129,7 @@ def test_costs_steer_the_choice(tmp_path: Path, capsys: pytest.CaptureFixture[st
 
 def test_learned_candidates_give_values_and_pairs(tmp_path: Path) -> None:
     from rac.analysis.place import candidates
-    from rac.loader import load_model
+    from rac.load.files import load_model
 
     text = Path(LOOP).read_text()
     text = text.replace(
@@ -149,7 +150,7 @@ def test_learned_candidates_give_values_and_pairs(tmp_path: Path) -> None:
 
 def test_a_topic_learned_without_a_rate_gets_no_gobs(tmp_path: Path) -> None:
     from rac.analysis.place import candidates
-    from rac.loader import load_model
+    from rac.load.files import load_model
 
     model = load_model(TEDUSAR)
     text = Path(TEDUSAR).read_text()

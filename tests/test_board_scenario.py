@@ -10,11 +10,12 @@ import pytest
 
 from rac.board.channels import channel_map
 from rac.board.client import BoardAddress
-from rac.board.scenario import board_observations, device_shutdown_on_board, render
+from rac.board.scenario import board_observations, render
 from rac.board.sim import BoardSimulator
 from rac.board.state import Fault
-from rac.diagnosis import load_theory
+from rac.board.trip import device_shutdown_on_board
 from rac.errors import RacError
+from rac.load.theory import load_theory
 
 TEDUSAR = str(Path(__file__).resolve().parent.parent / "models" / "tedusar.ram")
 

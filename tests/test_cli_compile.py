@@ -15,7 +15,7 @@ from rac import __version__
 from rac.cli import main
 from rac.fmt import format_model
 from rac.interchange import model_to_json
-from rac.loader import load_model
+from rac.load.files import load_model
 from rac.targets import targets
 
 ROOT = Path(__file__).resolve().parent.parent

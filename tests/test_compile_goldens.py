@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from goldens import UPDATE_HINT, assert_golden
 
-from rac.loader import load_model
+from rac.load.files import load_model
 from rac.pipeline import compile_model
 from rac.targets import EmitOptions, targets
 

@@ -13,14 +13,15 @@ from rac.diagnosis import (
     ambiguity_groups,
     collect,
     diagnose,
-    load_theory,
     parse_literal,
     predict,
     simulate,
 )
-from rac.diagnosis.model_yaml import parse_model_yaml
-from rac.diagnosis.theory import components_of, parse_observations
+from rac.diagnosis.theory import components_of
 from rac.errors import RacError
+from rac.load.model_yaml import parse_model_yaml
+from rac.load.observations import parse_observations
+from rac.load.theory import load_theory
 from rac.logic import Atom, parse_clause
 
 ROOT = Path(__file__).resolve().parent.parent

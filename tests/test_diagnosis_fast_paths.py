@@ -14,13 +14,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import rac.diagnosis.model_yaml as model_yaml
+import rac.load.model_yaml as model_yaml
 from rac.cli import main
 from rac.commands.common import batched_runs, run_values
-from rac.diagnosis import Theory, diagnose, load_theory, predict
+from rac.diagnosis import Theory, diagnose, predict
 from rac.diagnosis.search import minimal_sets, transversals
-from rac.diagnosis.theory import literal_at, parse_observations
+from rac.diagnosis.theory import literal_at
 from rac.errors import RacError
+from rac.load.observations import parse_observations
+from rac.load.theory import load_theory
 from rac.pipeline import compile_model
 from rac.targets import EmitOptions
 from rac.targets.model_yaml import emit_model_yaml
@@ -31,7 +33,7 @@ TEDUSAR = ROOT / "models" / "tedusar.ram"
 
 @pytest.fixture(scope="module")
 def generated() -> str:
-    from rac.loader import load_model
+    from rac.load.files import load_model
 
     return emit_model_yaml(compile_model(load_model(TEDUSAR)), EmitOptions())
 

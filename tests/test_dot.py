@@ -15,8 +15,9 @@ import pytest
 from goldens import assert_golden
 
 from rac.analysis.analyze import undetected
-from rac.analysis.modes import MODES
-from rac.commands.diagram import replay_health, theory_of
+from rac.commands.diagram import theory_of
+from rac.commands.reports import replay_health
+from rac.diagnosis.modes import MODES
 from rac.ir import (
     FieldRef,
     Hardware,
@@ -29,7 +30,7 @@ from rac.ir import (
     Related,
     Topic,
 )
-from rac.loader import load_model
+from rac.load.files import load_model
 from rac.logic import Atom
 from rac.parse import parse_ram
 from rac.pipeline import compile_model

@@ -28,10 +28,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from rac.cli import main
-from rac.diagnosis.model_yaml import parse_model_yaml
 from rac.diagnosis.theory import parse_literal
 from rac.errors import RacError
 from rac.interchange import parse_json
+from rac.load.model_yaml import parse_model_yaml
 from rac.logic import parse_atom
 from rac.parse import parse_ram
 from rac.pipeline import compile_model

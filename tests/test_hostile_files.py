@@ -11,9 +11,9 @@ from pathlib import Path
 
 import pytest
 
-from rac import loader
 from rac.cli import main
 from rac.errors import RacError
+from rac.load import files as loader
 
 ROOT = Path(__file__).resolve().parent.parent
 TEDUSAR = ROOT / "models" / "tedusar.ram"
@@ -103,7 +103,7 @@ def test_yaml_files_read_within_the_limits(
     path.write_text(text, encoding="utf-8")
     truth = tmp_path / "r.faults.yaml"
     truth.write_text(text, encoding="utf-8")
-    from rac.synth.truth import load_truth
+    from rac.load.faults import load_truth
 
     with pytest.raises(RacError) as raised:
         load_truth(truth)
@@ -220,7 +220,7 @@ def test_replay_drops_property_samples_far_outside_the_recording(
 @pytest.mark.parametrize("period", ["1e-9", "1e-12", "0.0000001s", "0.5ms"])
 def test_a_diagnosis_period_too_short_is_refused(period: str) -> None:
     """--diagnose-every 1e-9 made replay tick 2*10^10 times (and at 1e-12 the clock stood)."""
-    from rac.commands.replay import seconds
+    from rac.commands.options import period as seconds
 
     with pytest.raises(argparse.ArgumentTypeError, match="must be from 1 ms to 3600 s"):
         seconds(period)
@@ -462,3 +462,15 @@ def test_safe_yaml_loads_what_safe_load_loads_and_fails_as_it_does() -> None:
     with pytest.raises(yaml.YAMLError) as theirs:
         yaml.safe_load(broken)
     assert str(ours.value) == str(theirs.value)
+
+
+def test_demo_output_that_is_a_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`racc demo -o FILE` was an internal error (FileExistsError, exit 70); now RAC004 and
+    the file is left as it was."""
+    taken = tmp_path / "taken"
+    taken.write_text("mine\n")
+    args = ["demo", str(TEDUSAR), "--ros", "1", "-o", str(taken), "--write-only"]
+    assert main(args) == 1
+    err = capsys.readouterr().err
+    assert "error[RAC004]" in err and "exists and is not a directory" in err, err
+    assert taken.read_text() == "mine\n"

@@ -16,7 +16,8 @@ from hypothesis import strategies as st
 from rac.cli import main
 from rac.diagnosis import Literal, Theory, diagnose, is_consistent, parse_literal
 from rac.diagnosis.engine import Index
-from rac.diagnosis.theory import Key, components_of, known_atoms, parse_observations
+from rac.diagnosis.theory import Key, components_of, known_atoms
+from rac.load.observations import parse_observations
 from rac.logic import FALSE, Atom, Clause
 
 ATOMS = [
@@ -127,7 +128,7 @@ rules:
 
 
 def _theory(tmp_path: Path) -> tuple[Path, Theory]:
-    from rac.diagnosis import load_theory
+    from rac.load.theory import load_theory
 
     path = tmp_path / "model.yaml"
     path.write_text(ONLY_NEGATIONS, encoding="utf-8")

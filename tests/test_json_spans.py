@@ -27,7 +27,7 @@ from rac.interchange import (
     parse_json,
 )
 from rac.ir import Name, Node
-from rac.loader import load_model
+from rac.load.files import load_model
 from rac.pipeline import compile_model
 
 TEDUSAR = Path(__file__).resolve().parent.parent / "models" / "tedusar.ram"

@@ -14,8 +14,9 @@ from rac.ir import Model
 from rac.learn import LearnOptions, LearnResult, learn, observer_counts
 from rac.learn.fields import FieldSelector
 from rac.learn.learner import CPU_FLOOR, MEM_MARGIN
-from rac.learn.recording import Recording, read_recording
-from rac.loader import load_model
+from rac.learn.recording import Recording
+from rac.load.bags import read_recording
+from rac.load.files import load_model
 from rac.parse import parse_ram
 from rac.pipeline import compile_model
 from rac.synth import SynthOptions, plan_recording, write_recording

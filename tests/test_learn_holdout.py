@@ -16,9 +16,10 @@ from rac.learn.graph import Exclusions
 from rac.learn.learner import CPU_FLOOR, _limits, candidate_signals, learn, tried_pairs
 from rac.learn.options import LearnOptions
 from rac.learn.properties import PropertyStats
-from rac.learn.recording import Recording, Run, TopicData, merge_runs, read_recording
+from rac.learn.recording import Recording, Run, TopicData, merge_runs
 from rac.learn.trends import topic_trends
 from rac.learn.validate import failures
+from rac.load.bags import read_recording
 from rac.runtime.record import graph_yaml
 
 ROOT = Path(__file__).resolve().parent.parent

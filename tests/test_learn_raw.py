@@ -26,7 +26,7 @@ from rac.learn.fields import (
     row_extractor,
     with_angles,
 )
-from rac.learn.recording import read_recording
+from rac.load.bags import read_recording
 from rac.parse import parse_ram
 from rac.synth import SynthOptions, plan_recording, write_recording
 from rac.synth.types import resolve_type

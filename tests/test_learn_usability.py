@@ -14,7 +14,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from rac.cli import main
 from rac.learn.learner import _rounded_rate
-from rac.loader import load_model
+from rac.load.files import load_model
 
 ROOT = Path(__file__).resolve().parent.parent
 PIONEER = ROOT / "models" / "pioneer.ram"

@@ -17,10 +17,11 @@ from pathlib import Path
 import pytest
 from goldens import assert_golden
 
-from rac.diagnosis import Literal, diagnose, load_theory
+from rac.diagnosis import Literal, diagnose
 from rac.diagnosis.theory import Theory
 from rac.errors import RacError, Severity
 from rac.ir import Hardware, Model, Name, Node, Publication, Topic
+from rac.load.theory import load_theory
 from rac.logic import Atom, mangle
 from rac.passes.loops import find_loops, strongly_connected
 from rac.pipeline import compile_model
@@ -46,7 +47,7 @@ def test_all_healthy_loop_derives_its_topics() -> None:
 
 
 def test_loop_note_names_the_loop() -> None:
-    from rac.loader import load_model
+    from rac.load.files import load_model
 
     compiled = compile_model(load_model(str(LOOP_RAM)))
     notes = [d for d in compiled.warnings if d.code == "RAC104"]
@@ -55,7 +56,7 @@ def test_loop_note_names_the_loop() -> None:
 
 
 def test_loop_rules_golden(update_goldens: bool) -> None:
-    from rac.loader import load_model
+    from rac.load.files import load_model
 
     compiled = compile_model(load_model(str(LOOP_RAM)))
     text = emit_model_yaml(compiled, EmitOptions())

@@ -8,7 +8,7 @@ import pytest
 
 from rac.cli import main
 from rac.fmt import format_model
-from rac.loader import load_model
+from rac.load.files import load_model
 from rac.pipeline import compile_model
 
 MODELS = sorted(Path(__file__).resolve().parent.parent.joinpath("models").glob("*.ram"))

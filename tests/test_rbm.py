@@ -21,7 +21,7 @@ from ram_strategies import models
 
 from rac.cli import main
 from rac.interchange import model_to_json
-from rac.loader import load_model
+from rac.load.files import load_model
 from rac.logic import parse_atom
 from rac.parse import parse_ram
 from rac.pipeline import compile_model

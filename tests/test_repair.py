@@ -24,7 +24,8 @@ from test_repair_helpers import (
     theta,
 )
 
-from rac.diagnosis import Literal, Theory, diagnose, load_theory
+from rac.diagnosis import Literal, Theory, diagnose
+from rac.load.theory import load_theory
 from rac.logic import Atom
 from rac.repair import (
     InapplicableStep,

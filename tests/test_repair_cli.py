@@ -22,7 +22,7 @@ from test_repair_helpers import (
 )
 
 from rac.cli import main
-from rac.diagnosis import load_theory
+from rac.load.theory import load_theory
 from rac.repair import Kind, ScenarioResult, repair_system, run_scenario
 
 Golden = Callable[[Path, str], None]

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from rac.diagnosis import Literal, Theory, collect, load_theory, parse_literal
+from rac.diagnosis import Literal, Theory, collect, parse_literal
+from rac.load.theory import load_theory
 from rac.repair import Kind, RepairResult, Step
 from rac.repair.validate import validate_plan
 

@@ -12,8 +12,9 @@ import pytest
 
 from rac.cli import main
 from rac.evaluate.score import score_run
+from rac.load.faults import load_truth
 from rac.replay.timeline import DiagnosisRecord, ObservationRecord, Timeline
-from rac.synth.truth import InjectedFault, load_truth
+from rac.synth.truth import InjectedFault
 
 ROOT = Path(__file__).resolve().parent.parent
 PIONEER = str(ROOT / "models" / "pioneer.ram")

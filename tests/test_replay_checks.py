@@ -10,9 +10,9 @@ from test_replay import read_timeline
 
 from rac.cli import main
 from rac.evaluate.score import score_run
+from rac.load.faults import load_truth
 from rac.observe.events import ChannelState, NodeSample
 from rac.replay.sources import LIVENESS_STEP_S, Needs, liveness, load_run
-from rac.synth.truth import load_truth
 
 ROOT = Path(__file__).resolve().parent.parent
 PIONEER = str(ROOT / "models" / "pioneer.ram")

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from rac.cli import main
-from rac.loader import load_model
+from rac.load.files import load_model
 from rac.observe import Message, ObserverBank
 from rac.pipeline import compile_model
 from rac.replay.sources import Needs, load_run

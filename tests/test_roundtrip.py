@@ -18,7 +18,7 @@ from rac.errors import RacError
 from rac.fmt import format_model
 from rac.interchange import dumps, model_to_json, parse_json
 from rac.ir import Model
-from rac.loader import load_model
+from rac.load.files import load_model
 from rac.parse import parse_ram
 from rac.pipeline import compile_model
 from rac.targets import EmitOptions, targets

@@ -12,8 +12,9 @@ from rosbags.rosbag1 import Reader as Reader1
 from rac.cli import main
 from rac.errors import RacError
 from rac.learn.fields import FieldSelector, euler_from_quaternion, quaternion_from_euler
-from rac.learn.recording import Recording, read_recording
-from rac.loader import load_model
+from rac.learn.recording import Recording
+from rac.load.bags import read_recording
+from rac.load.files import load_model
 from rac.synth import SynthOptions, plan_recording, write_recording
 from rac.synth.faults import parse_fault
 

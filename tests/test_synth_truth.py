@@ -9,7 +9,8 @@ import pytest
 
 from rac.cli import main
 from rac.errors import RacError
-from rac.loader import load_model
+from rac.load.faults import load_truth
+from rac.load.files import load_model
 from rac.parse import parse_ram
 from rac.synth import SynthOptions, plan_recording
 from rac.synth.faults import Fault, parse_fault
@@ -30,7 +31,6 @@ from rac.synth.truth import (
     check_truth,
     dump_truth,
     ground_truth,
-    load_truth,
     parse_truth,
     truth_path,
 )

@@ -7,7 +7,8 @@ from pathlib import Path
 import pytest
 
 from rac.cli import main
-from rac.diagnosis import Literal, diagnose, load_theory
+from rac.diagnosis import Literal, diagnose
+from rac.load.theory import load_theory
 from rac.logic import Atom
 from rac.tug import import_tug
 

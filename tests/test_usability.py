@@ -67,7 +67,7 @@ def test_summaries_use_singular_for_one(tmp_path: Path, capsys: pytest.CaptureFi
 
 @pytest.mark.parametrize("name", ["tedusar", "pioneer"])
 def test_power_up_starts_publishers_before_their_subscribers(name: str) -> None:
-    from rac.diagnosis import load_theory
+    from rac.load.theory import load_theory
     from rac.logic import mangle
     from rac.repair.order import flow_ranks
     from rac.repair.scenario import run_scenario

@@ -49,8 +49,8 @@ def test_diagnose_reads_the_model_yaml_compile_writes_for_50000_nodes(tmp_path: 
         from compile import synthetic_model
     finally:
         sys.path.remove(str(ROOT / "bench"))
-    from rac.diagnosis import load_theory
     from rac.limits import MAX_YAML_BYTES
+    from rac.load.theory import load_theory
     from rac.pipeline import compile_model
     from rac.targets import EmitOptions
     from rac.targets.model_yaml import emit_model_yaml

@@ -1,6 +1,6 @@
 """Diagnosability: which faults the observers detect, and which they tell apart.
 
-For every component c that can fail in a mode, the truth model (``rac.analysis.modes``)
+For every component c that can fail in a mode, the truth model (``rac.diagnosis.modes``)
 gives the observers' report; the diagnosis theory then decides, under the single-fault
 assumption, which components {d} that can fail in the same mode are consistent with that
 report: c's *candidates* (in output mode, a node's wrong output is not blamed on its device:
@@ -22,8 +22,8 @@ from dataclasses import dataclass
 
 import networkx as nx
 
-from rac.analysis.modes import truth_model
 from rac.diagnosis.engine import Index
+from rac.diagnosis.modes import truth_model
 from rac.diagnosis.result import compile_theory, diagnose
 from rac.diagnosis.simulate import observable, predict
 from rac.diagnosis.theory import Literal, Theory

@@ -35,8 +35,8 @@ import networkx as nx
 import numpy as np
 
 from rac.analysis.analyze import Analysis, analyze, analyzer_for, cone, flow_graph
-from rac.analysis.modes import truth_model
 from rac.diagnosis.engine import Index
+from rac.diagnosis.modes import truth_model
 from rac.diagnosis.theory import Literal, Theory
 from rac.errors import Diagnostic, RacError
 from rac.ir import FieldRef, Interval, Limits, Model, Name, Related

@@ -6,10 +6,10 @@ import argparse
 from typing import Any
 
 from rac.analysis.analyze import Analysis, analyze, flow_graph
-from rac.analysis.modes import MODES
 from rac.commands.common import add_command, count, json_text
-from rac.diagnosis import load_theory
+from rac.diagnosis.modes import MODES
 from rac.ir import Model
+from rac.load.theory import load_theory
 from rac.targets.dot import quote
 
 

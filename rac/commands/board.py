@@ -7,35 +7,15 @@ import asyncio
 import json
 import math
 import sys
-from collections.abc import Sequence
 from typing import Any
 
 from rac.board.channels import ChannelMap, channel_map, check_fits, hobs_literals, resolve_target
 from rac.board.client import BoardClient, ClientSettings, parse_address
 from rac.board.control import HELP, VERBS, send_control
-from rac.board.execute import (
-    HARDWARE_ACTIONS,
-    parse_node_commands,
-    reports_json,
-    run_plan,
-    suggested_commands,
-)
 from rac.board.protocol import Measurements
-from rac.board.scenario import device_shutdown_on_board
-from rac.board.scenario import render as render_scenario
-from rac.commands.common import add_command, count, json_text, load_checked
-from rac.diagnosis import load_theory
+from rac.commands.common import add_command, load_checked
+from rac.commands.options import address_arg
 from rac.errors import Diagnostic, RacError, did_you_mean
-from rac.repair import NoRepairPlan, robot_name
-
-
-def address_arg(text: str) -> str:
-    """argparse type for HOST:PORT: a malformed address is a command-line error (exit 2)."""
-    try:
-        parse_address(text)
-    except RacError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not HOST:PORT") from None
-    return text
 
 
 def register(sub: Any) -> None:
@@ -209,116 +189,3 @@ def run(args: argparse.Namespace) -> int:
 
 # -- `racc repair --execute` and `racc scenario --board` (issue 6, item 4) --------------------
 # repair.py and scenario.py call these, so that their own code stays about planning.
-
-
-def add_execute_options(parser: argparse.ArgumentParser) -> None:
-    """``--execute --board HOST:PORT [--node-commands start=T --node-commands stop=T]``."""
-    parser.add_argument(
-        "--execute",
-        action="store_true",
-        help="carry out the plan: power_up/shutdown through --board (waiting for the MSR that "
-        "shows each new state), node steps printed as commands or run from --node-commands",
-    )
-    add_board_options(parser)
-
-
-def add_board_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--board",
-        metavar="HOST:PORT",
-        type=address_arg,
-        help="the diagnostic board (or board-sim), needed by --execute",
-    )
-    parser.add_argument(
-        "--node-commands",
-        metavar="KIND=TEMPLATE",
-        action="append",
-        default=[],
-        help="run node steps: start=TEMPLATE and stop=TEMPLATE, {node} is the node "
-        "(without them node steps are printed, not run)",
-    )
-    parser.add_argument(
-        "--ros",
-        choices=("1", "2"),
-        default=None,
-        help="the ROS of the node commands printed for node steps (default: $ROS_VERSION, else 1)",
-    )
-
-
-def _board_channels(model_path: str) -> ChannelMap:
-    if model_path.endswith((".yaml", ".yml")):
-        raise RacError(
-            [
-                Diagnostic(
-                    "RAC092",
-                    "a model.yaml does not say which channel a device is on",
-                    hint="give the .ram or ram/1 .json model to use the board",
-                )
-            ]
-        )
-    return channel_map(load_checked(model_path))
-
-
-def execute_repair(args: argparse.Namespace, plan: Sequence[Sequence[str]]) -> int:
-    """Execute a repair plan after ``racc repair`` printed it; RacError (exit 1) on failure."""
-    steps = [(step[0], step[1]) for step in plan]
-    hardware = any(action in HARDWARE_ACTIONS for action, _ in steps)
-    if hardware and not args.board:
-        raise RacError(
-            [Diagnostic("RAC090", "--execute needs --board HOST:PORT for power_up/shutdown steps")]
-        )
-    channels = _board_channels(args.model) if hardware else ChannelMap()
-    templates = parse_node_commands(args.node_commands) if args.node_commands else None
-    address = parse_address(args.board) if args.board else None
-    reports = run_plan(
-        steps, channels, address, node_commands=templates, suggest=suggested_commands(args.ros)
-    )
-    if args.json:
-        print(json_text(reports_json(reports), args))
-    else:
-        done = sum(r.executed for r in reports)
-        print(f"executed {done} of {count(len(reports), 'step')}:")
-        for i, r in enumerate(reports, 1):
-            print(f"{i}. {r}" if r.executed else f"{i}. not run: {r}")
-    return 0
-
-
-def add_scenario_options(parser: argparse.ArgumentParser) -> None:
-    add_board_options(parser)
-    parser.add_argument(
-        "--board-control",
-        metavar="HOST:PORT",
-        type=address_arg,
-        help="board-sim's control port: trip the device there (else the scenario switches it off)",
-    )
-
-
-def run_board_scenario(args: argparse.Namespace) -> int:
-    """``racc scenario MODEL device-shutdown --board …``: end to end against the board."""
-    if args.scenario != "device-shutdown":
-        print(
-            "racc scenario: error: --board runs the device-shutdown scenario only", file=sys.stderr
-        )
-        return 2  # a command line error, as argparse's
-    _board_channels(args.model)  # a model.yaml fails here, clearly
-    theory = load_theory(args.model)
-    templates = parse_node_commands(args.node_commands) if args.node_commands else None
-    control = parse_address(args.board_control) if args.board_control else None
-    try:
-        result = asyncio.run(
-            device_shutdown_on_board(
-                theory,
-                robot_name(theory, args.model),
-                parse_address(args.board),
-                device=args.device,
-                control=control,
-                node_commands=templates,
-                suggest=suggested_commands(args.ros),
-                planner_timeout_s=args.planner_timeout,
-            )
-        )
-    except NoRepairPlan as err:
-        print(err.render(), file=sys.stderr)
-        return 3
-    print(json_text(result.to_json(), args) if args.json else render_scenario(result))
-    return 0

@@ -8,7 +8,7 @@ from typing import Any
 from rac.board.channels import ChannelMap
 from rac.board.client import parse_address
 from rac.commands.common import add_command, add_ros_option, ros_version
-from rac.loader import load_observers
+from rac.load.files import load_observers
 from rac.observe.hobs import parse_channels
 
 

@@ -8,7 +8,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from rac.commands.common import add_command, count, load_and_compile, write_files_atomically
+from rac.commands.common import add_command, count, load_and_compile
+from rac.load.drawing import run_dot
+from rac.load.output import write_files_atomically
 from rac.perf import paused_gc
 from rac.targets import (
     DEFAULT_MODEL_SERVER_PACKAGE,
@@ -65,8 +67,6 @@ def render_svg(dot_text: str) -> bytes | None:
     dot = shutil.which("dot")
     if dot is None:
         return None
-    from rac.commands.diagram import run_dot
-
     done = run_dot(dot, dot_text, "svg", 120)
     if done.returncode != 0:
         print(

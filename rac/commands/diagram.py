@@ -9,31 +9,28 @@ writes the file in the format its suffix names (docs/diagrams.md).
 from __future__ import annotations
 
 import argparse
-import shutil
-import subprocess
 import sys
 import time
-from collections.abc import Sequence
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from rac.commands.common import add_command, count, load_and_compile, write_file_atomically
-from rac.commands.diagnose import add_observation_options, observations
+from rac.commands.common import add_command, count, load_and_compile
+from rac.commands.options import add_max_card_option, add_observation_options
+from rac.commands.reports import diagnosis_title
 from rac.errors import Diagnostic, RacError
+from rac.load.drawing import (
+    check_suffix,
+    write_diagram,
+)
+from rac.load.observations import read_observations
 
 if TYPE_CHECKING:
     from rac.diagnosis import Theory
     from rac.pipeline import Compiled
-    from rac.replay.timeline import Timeline
     from rac.targets.coverage import Health
 
-# What Graphviz writes for each suffix; .dot and .gv are the DOT text itself.
-FORMATS = {".svg": "svg", ".png": "png", ".pdf": "pdf", ".jpg": "jpg", ".jpeg": "jpg"}
-DOT_SUFFIXES = (".dot", ".gv")
 # The coverage analysis costs one propagation per fault and mode: 0.05 s at 30 nodes, 5 s
 # at 300, 80 s at 1,000 (docs/diagrams.md).  Above this many nodes it runs only when asked.
 ANALYSIS_UP_TO_NODES = 300
-RENDER_TIMEOUT_S = 300
 
 
 def register(sub: Any) -> None:
@@ -104,13 +101,7 @@ def register(sub: Any) -> None:
         "(repeatable, one per diagnosis; default: the diagnoses of --obs, if any)",
     )
     add_observation_options(parser)
-    parser.add_argument(
-        "--max-card",
-        metavar="K",
-        type=_depth,
-        default=3,
-        help="diagnose --obs with at most K faulty components (default: 3)",
-    )
+    add_max_card_option(parser, 3, "diagnose --obs with at most K faulty components", _depth)
     parser.add_argument(
         "--live",
         action="store_true",
@@ -197,84 +188,6 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def check_suffix(output: str | None) -> str:
-    if output is None:
-        return ".dot"
-    suffix = Path(output).suffix.lower()
-    if suffix not in DOT_SUFFIXES and suffix not in FORMATS:
-        known = ", ".join([*DOT_SUFFIXES, *FORMATS])
-        raise RacError(
-            [
-                Diagnostic(
-                    "RAC068",
-                    f"{output}: the suffix names no diagram format",
-                    hint=f"end the file name in one of {known}",
-                )
-            ]
-        )
-    return suffix
-
-
-def write_diagram(output: str | None, text: str, suffix: str) -> None:
-    """``text`` (DOT) to ``output``, rendered by Graphviz unless the suffix is .dot/.gv."""
-    if output is None:
-        return
-    if suffix in DOT_SUFFIXES:
-        write_file_atomically(Path(output), text)
-        return
-    write_file_atomically(Path(output), render(text, FORMATS[suffix], output))
-
-
-def render(text: str, fmt: str, output: str) -> bytes:
-    dot = shutil.which("dot")
-    if dot is None:
-        raise RacError(
-            [
-                Diagnostic(
-                    "RAC065",
-                    f"{output}: drawing this format needs Graphviz's dot, which is not installed",
-                    hint="install Graphviz (Debian/Ubuntu: apt-get install graphviz), or write "
-                    "a .dot file and render it elsewhere",
-                )
-            ]
-        )
-    done = run_dot(dot, text, fmt, RENDER_TIMEOUT_S)
-    if done.returncode != 0:
-        why = done.stderr.decode(errors="replace").strip()
-        raise RacError(
-            [
-                Diagnostic(
-                    "RAC065",
-                    f"{output}: Graphviz's dot failed: {why}",
-                    hint="write a .dot file and report the failure with it",
-                )
-            ]
-        )
-    return done.stdout
-
-
-def run_dot(dot: str, text: str, fmt: str, timeout: float) -> subprocess.CompletedProcess[bytes]:
-    """Graphviz's ``dot -TFMT`` of ``text``, once more with ``newrank`` if it fails.
-
-    dot's classic ranking fails on some graphs with clusters ("trouble in init_rank"; a
-    300-node robot in 37 namespaces does); ``newrank`` ranks them, with a layout that is
-    often wider, so it is the second choice only.
-    """
-    data = text.encode("utf-8")
-    done = subprocess.run(
-        [dot, f"-T{fmt}"], input=data, capture_output=True, timeout=timeout, check=False
-    )
-    if done.returncode != 0 and b"init_rank" in done.stderr:
-        done = subprocess.run(
-            [dot, "-Gnewrank=true", f"-T{fmt}"],
-            input=data,
-            capture_output=True,
-            timeout=timeout,
-            check=False,
-        )
-    return done
-
-
 def check_focus(compiled: Compiled, name: str) -> None:
     model = compiled.model
     names = [n.name.value for n in model.nodes] + [h.name.value for h in model.hardware]
@@ -298,7 +211,7 @@ def check_focus(compiled: Compiled, name: str) -> None:
 
 def _undetected(theory: Theory, quiet: bool) -> tuple[tuple[str, tuple[str, ...]], ...]:
     from rac.analysis.analyze import undetected
-    from rac.analysis.modes import MODES
+    from rac.diagnosis.modes import MODES
 
     if not quiet and sys.stderr.isatty():
         print("analysing which faults the observers detect…", end="\r", file=sys.stderr)
@@ -311,9 +224,10 @@ def _undetected(theory: Theory, quiet: bool) -> tuple[tuple[str, tuple[str, ...]
 def _health(args: argparse.Namespace, compiled: Compiled, theory: Theory) -> Health | None:
     from rac.targets.coverage import Health
 
-    literals = observations(args, theory) if args.sources else ()
+    literals = read_observations(args.sources, theory) if args.sources else ()
     observed = tuple((lit.atom, lit.positive) for lit in literals)
     if args.live:
+        # The live half (rac.runtime.status, then rospy or rclpy) loads only for --live.
         from rac.commands.diagram_live import live_health
 
         live: Health = live_health(args, compiled)
@@ -335,16 +249,6 @@ def _health(args: argparse.Namespace, compiled: Compiled, theory: Theory) -> Hea
         result.diagnoses,
         observed,
     )
-
-
-def diagnosis_title(diagnoses: Sequence[Sequence[str]], consistent: bool, what: str) -> str:
-    if consistent:
-        return f"{what}: consistent, no fault"
-    if not diagnoses:
-        return f"{what}: no diagnosis explains them"
-    shown = " | ".join("{" + ", ".join(d) + "}" for d in diagnoses[:4])
-    more = f" (+{len(diagnoses) - 4} more)" if len(diagnoses) > 4 else ""
-    return f"{what}: minimal diagnoses {shown}{more}"
 
 
 def _named_diagnosis(compiled: Compiled, text: str) -> tuple[str, ...]:
@@ -369,35 +273,3 @@ def _named_diagnosis(compiled: Compiled, text: str) -> tuple[str, ...]:
             ]
         )
     return tuple(known[n] for n in names)
-
-
-def replay_health(timeline: Timeline, at: float) -> Health:
-    """What a replay had observed and diagnosed at ``at`` seconds."""
-    from rac.logic import NEG_PREFIX, parse_atom
-    from rac.replay.timeline import DiagnosisRecord, ObservationRecord
-    from rac.targets.coverage import Health
-
-    diagnoses: tuple[tuple[str, ...], ...] = ()
-    held: dict[Any, bool] = {}
-    for record in timeline.records:
-        if record.t > at:
-            break
-        if isinstance(record, DiagnosisRecord):
-            diagnoses = record.diagnoses
-        elif isinstance(record, ObservationRecord):
-            positive = not record.literal.startswith(NEG_PREFIX)
-            held[parse_atom(record.literal.removeprefix(NEG_PREFIX))] = positive
-    bad = sum(1 for v in held.values() if not v)
-    what = f"replay at {at:g} s, {len(held)} observations, {bad} bad"
-    title = diagnosis_title(diagnoses, not diagnoses, what)
-    return Health(title, diagnoses, tuple(held.items()))
-
-
-def draw_health(compiled: Compiled, at: float, timeline: Timeline, output: str) -> None:
-    """``racc replay --diagram-at``: the architecture as the replay saw it ``at`` seconds in."""
-    from rac.targets.dot import View, emit_diagram
-
-    view = View(health=replay_health(timeline, at))
-    write_diagram(
-        output, emit_diagram(compiled.model, compiled.observers, view), check_suffix(output)
-    )

@@ -10,6 +10,7 @@ import time
 from typing import TYPE_CHECKING, Any
 
 from rac.commands.common import ros_version
+from rac.commands.reports import diagnosis_title
 from rac.errors import Diagnostic, RacError
 from rac.runtime.status import DIAGNOSIS, OBSERVATIONS, Row, row_diagnosis, row_verdict
 
@@ -55,7 +56,6 @@ def _bus(version: int) -> tuple[Any, Any]:
 
 
 def live_health(args: argparse.Namespace, compiled: Compiled) -> Health:
-    from rac.commands.diagram import diagnosis_title
     from rac.targets.coverage import Health
 
     snapshot = _Snapshot()

@@ -6,8 +6,8 @@ import argparse
 from typing import Any
 
 from rac.commands.common import add_command, add_ros_option, ros_version
-from rac.diagnosis import load_theory
-from rac.repair import robot_name
+from rac.commands.options import add_max_card_option
+from rac.load.theory import load_theory, robot_name
 
 
 def register(sub: Any) -> None:
@@ -28,12 +28,7 @@ def register(sub: Any) -> None:
     )
     parser.add_argument("model", metavar="MODEL", help="model.yaml (or .ram/.json)")
     parser.add_argument("--rate", type=float, default=1.0, help="diagnoses per second (default: 1)")
-    parser.add_argument(
-        "--max-card",
-        metavar="K",
-        type=int,
-        help="search diagnoses of at most K faulty components (default: no bound)",
-    )
+    add_max_card_option(parser, type=int)
     add_ros_option(parser)
     parser.set_defaults(run=run)
 

@@ -9,17 +9,12 @@ import textwrap
 from pathlib import Path
 from typing import Any
 
-from rac.commands.common import (
-    add_command,
-    checked_truth,
-    load_and_compile,
-    load_checked,
-    write_file_atomically,
-)
-from rac.commands.replay import add_replay_options
+from rac.commands.common import add_command, checked_truth, load_and_compile, load_checked
+from rac.commands.options import add_replay_options
 from rac.errors import Diagnostic, RacError
 from rac.evaluate.evaluation import Candidate
 from rac.ir import Model
+from rac.load.output import write_file_atomically
 
 
 def _number(text: str) -> float:
@@ -178,9 +173,10 @@ def _learned(args: argparse.Namespace, quiet: bool) -> list[Candidate]:
     from rac.learn.fields import FieldSelector
     from rac.learn.learner import learn
     from rac.learn.options import LearnOptions
-    from rac.learn.properties import parse_properties, property_stats
-    from rac.learn.recording import read_recording
-    from rac.loader import is_file, read_text
+    from rac.learn.properties import property_stats
+    from rac.load.bags import read_recording
+    from rac.load.files import is_file
+    from rac.load.recorded import load_properties
     from rac.pipeline import compile_model
     from rac.replay.load import replayable
     from rac.replay.sources import properties_beside
@@ -195,7 +191,7 @@ def _learned(args: argparse.Namespace, quiet: bool) -> list[Candidate]:
     for run in args.learn_from:
         csv = properties_beside(run)
         if is_file(csv):
-            for node, props in parse_properties(read_text(csv), str(csv)).items():
+            for node, props in load_properties(csv).items():
                 into = samples.setdefault(node, {"cpu": [], "mem": []})
                 for prop, values in props.items():
                     into[prop].extend(values)

@@ -7,9 +7,10 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from rac.commands.common import add_command, load_checked, write_file_atomically
+from rac.commands.common import add_command, load_checked
 from rac.fmt import format_model
 from rac.interchange import dumps
+from rac.load.output import write_file_atomically
 
 
 def register(sub: Any) -> None:

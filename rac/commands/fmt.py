@@ -8,10 +8,11 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from rac.commands.common import add_command, write_file_atomically
+from rac.commands.common import add_command
 from rac.errors import Diagnostic, RacError
 from rac.fmt import format_model
-from rac.loader import read_text
+from rac.load.files import read_text
+from rac.load.output import write_file_atomically
 from rac.parse import parse_ram
 
 

@@ -8,12 +8,13 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from rac.commands.common import add_command, count, write_file_atomically
+from rac.commands.common import add_command, count
 from rac.errors import RacError
 from rac.fmt import format_model
-from rac.loader import read_text
+from rac.load.output import write_file_atomically
+from rac.load.tug import load_tug
 from rac.pipeline import compile_model
-from rac.tug import DEFAULT_RATE_HZ, import_tug
+from rac.tug import DEFAULT_RATE_HZ
 
 
 def register(sub: Any) -> None:
@@ -58,7 +59,7 @@ def _rate(text: str) -> float:
 
 def run(args: argparse.Namespace) -> int:
     name = args.name or Path(args.config).stem
-    imported = import_tug(read_text(args.config), args.config, name, args.default_rate)
+    imported = load_tug(args.config, name, args.default_rate)
     model = imported.model
     text = format_model(model)
     try:

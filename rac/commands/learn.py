@@ -11,7 +11,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from rac.commands.common import add_command, count, load_checked, write_file_atomically
+from rac.commands.common import add_command, count, load_checked
 from rac.fmt import format_model
 from rac.learn.options import (
     DEFAULT_ALPHA,
@@ -22,7 +22,7 @@ from rac.learn.options import (
     DEFAULT_SIGMAS,
     DEFAULT_SIGNIFICANCE,
 )
-from rac.loader import read_text
+from rac.load.output import write_file_atomically
 from rac.pipeline import compile_model
 
 
@@ -192,18 +192,18 @@ def run(args: argparse.Namespace) -> int:
     # NumPy and rosbags load here, not at start-up: every racc command pays for imports
     # made at module level.
     from rac.learn.fields import FieldSelector
-    from rac.learn.graph import parse_graph
     from rac.learn.learner import learn, observer_counts, report
     from rac.learn.options import LearnOptions
-    from rac.learn.properties import parse_properties, property_stats
-    from rac.learn.recording import read_recording
+    from rac.learn.properties import property_stats
+    from rac.load.bags import read_recording
+    from rac.load.recorded import load_graph, load_properties
 
     _check_options(args)
     base = load_checked(args.base) if args.base else None
-    graph = parse_graph(read_text(args.graph), args.graph) if args.graph else None
+    graph = load_graph(args.graph) if args.graph else None
     properties = []
     if args.properties:
-        properties = property_stats(parse_properties(read_text(args.properties), args.properties))
+        properties = property_stats(load_properties(args.properties))
     declared = None
     only = None
     if base is not None:

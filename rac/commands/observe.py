@@ -7,7 +7,7 @@ from typing import Any
 
 from rac.commands.common import add_command, add_ros_option, ros_version
 from rac.errors import Diagnostic, RacError
-from rac.loader import load_observers
+from rac.load.files import load_observers
 from rac.observe import ObserverBank
 from rac.passes.machines import machines_of, on_machine
 

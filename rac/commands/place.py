@@ -9,16 +9,14 @@ import sys
 from pathlib import Path
 from typing import Any
 
-import yaml
-
-from rac.analysis.modes import MODES
 from rac.analysis.place import Placement, place
-from rac.commands.common import add_command, json_text, write_file_atomically
-from rac.diagnosis import load_theory
-from rac.errors import Diagnostic, RacError
+from rac.commands.common import add_command, json_text
+from rac.diagnosis.modes import MODES
 from rac.fmt import format_model
-from rac.limits import safe_yaml
-from rac.loader import load_model, read_text
+from rac.load.costs import load_costs
+from rac.load.files import load_model
+from rac.load.output import write_file_atomically
+from rac.load.theory import load_theory
 
 
 def register(sub: Any) -> None:
@@ -80,31 +78,6 @@ def _budget(text: str) -> float:
     if not math.isfinite(value) or value < 0:
         raise argparse.ArgumentTypeError(f"the budget must be ≥ 0, not {text}")
     return value
-
-
-def load_costs(path: str) -> dict[str, float]:
-    text = read_text(path)
-    try:
-        doc = safe_yaml(text, path)
-    except yaml.YAMLError as err:
-        raise RacError([Diagnostic("RAC062", f"{path}: not YAML: {err}")]) from None
-    if doc is None:
-        return {}
-    bad = not isinstance(doc, dict) or any(
-        not isinstance(k, str) or isinstance(v, bool) or not isinstance(v, int | float) or v <= 0
-        for k, v in doc.items()
-    )
-    if bad:
-        raise RacError(
-            [
-                Diagnostic(
-                    "RAC062",
-                    f"{path}: costs must map observer kinds or names to positive numbers",
-                    hint="e.g. 'GObs: 1', 'PObs: 2', 'GObs /map: 5'",
-                )
-            ]
-        )
-    return {str(k): float(v) for k, v in doc.items()}
 
 
 def patch_text(path: str, placement: Placement) -> str:

@@ -8,69 +8,49 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from rac.commands.board import add_execute_options, execute_repair
-from rac.commands.common import add_command, json_text, write_file_atomically
-from rac.commands.diagnose import add_observation_options, card, notes, observations
-from rac.diagnosis import diagnose, load_theory
+from rac.board.channels import ChannelMap
+from rac.board.client import parse_address
+from rac.board.execute import (
+    HARDWARE_ACTIONS,
+    parse_node_commands,
+    reports_json,
+    run_plan,
+    suggested_commands,
+)
+from rac.commands.common import add_command, count, json_text
+from rac.commands.options import (
+    add_execute_options,
+    add_max_card_option,
+    add_observation_options,
+    add_planner_options,
+)
+from rac.commands.reports import (
+    EXIT_NO_PLAN,
+    VALIDATED,
+    diagnosis_notes,
+    plan_lines,
+    validated_json,
+)
+from rac.diagnosis import diagnose
+from rac.errors import Diagnostic, RacError
+from rac.load.board import load_board_channels
+from rac.load.observations import read_observations
+from rac.load.output import write_file_atomically
+from rac.load.theory import load_theory, robot_name
 from rac.repair import (
-    DEFAULT_TIMEOUT_S,
     PLANNER,
     STRATEGIES,
     NoRepairPlan,
     Prepared,
     RepairResult,
-    Step,
     prepare,
-    robot_name,
     solve,
 )
 from rac.repair.validate import validate_plan
-
-EXIT_NO_PLAN = 3
-MAX_TIMEOUT_S = 1e6  # eleven days
-
-
-def seconds(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
-    if not value > 0:
-        raise argparse.ArgumentTypeError("must be more than 0")
-    if not value <= MAX_TIMEOUT_S:  # inf, or beyond what the OS timers take
-        raise argparse.ArgumentTypeError(f"must be at most {MAX_TIMEOUT_S:g} seconds")
-    return value
-
-
-def add_planner_options(
-    parser: argparse.ArgumentParser, json_help: str = "print JSON (docs/spec.md#racc-repair---json)"
-) -> None:
-    parser.add_argument(
-        "--planner-timeout",
-        metavar="S",
-        type=seconds,
-        default=DEFAULT_TIMEOUT_S,
-        help="give the planner at most S seconds (default: %(default)g)",
-    )
-    parser.add_argument(
-        "--validate",
-        action="store_true",
-        help="check the plan with unified-planning's plan validator (optional extra)",
-    )
-    parser.add_argument("--json", action="store_true", help=json_help)
-
-
-VALIDATED = "plan validated by unified-planning's plan validator"
-
-
-def validated_json(doc: dict[str, Any], args: argparse.Namespace, plan: tuple[Step, ...]) -> Any:
-    """``validated``: true when --validate checked a plan (an invalid one is an error)."""
-    if args.validate:
-        doc["validated"] = bool(plan)
-    return doc
 
 
 def register(sub: Any) -> None:
@@ -99,13 +79,7 @@ def register(sub: Any) -> None:
         help="minimal: repair every component of the minimum-cardinality diagnoses in one "
         "plan (default); first: repair the first diagnosis only, as the dissertation does",
     )
-    parser.add_argument(
-        "--max-card",
-        metavar="K",
-        type=card,
-        default=None,
-        help="search diagnoses of at most K faulty components (default: no bound)",
-    )
+    add_max_card_option(parser)
     parser.add_argument(
         "--problem-out", metavar="F", help="also write the PDDL repair problem to file F"
     )
@@ -114,20 +88,12 @@ def register(sub: Any) -> None:
     parser.set_defaults(run=run)
 
 
-def step_text(step: Step) -> str:
-    return f"{step[0]}({', '.join(step[1:])})"
-
-
-def plan_lines(plan: tuple[Step, ...]) -> list[str]:
-    return [f"{i}. {step_text(step)}" for i, step in enumerate(plan, 1)]
-
-
 def compute(args: argparse.Namespace) -> RepairResult:
     """Diagnose, choose, plan (and validate): the result the command prints."""
     theory = load_theory(args.model)
-    theta = observations(args, theory)
+    theta = read_observations(args.sources, theory)
     diagnosis = diagnose(theory, theta, args.max_card)
-    for note in notes(diagnosis, args.max_card):
+    for note in diagnosis_notes(diagnosis, args.max_card):
         print(note, file=sys.stderr)
     robot = robot_name(theory, args.model)
     prepared = prepare(theory, theta, robot, args.strategy, diagnosis=diagnosis)
@@ -200,4 +166,31 @@ def run(args: argparse.Namespace) -> int:
             print(VALIDATED)
     if args.execute:
         return execute_repair(args, result.plan)
+    return 0
+
+
+# -- `racc repair --execute` (issue 6, item 4): the plan carried out through rac.board ------
+
+
+def execute_repair(args: argparse.Namespace, plan: Sequence[Sequence[str]]) -> int:
+    """Execute a repair plan after ``racc repair`` printed it; RacError (exit 1) on failure."""
+    steps = [(step[0], step[1]) for step in plan]
+    hardware = any(action in HARDWARE_ACTIONS for action, _ in steps)
+    if hardware and not args.board:
+        raise RacError(
+            [Diagnostic("RAC090", "--execute needs --board HOST:PORT for power_up/shutdown steps")]
+        )
+    channels = load_board_channels(args.model) if hardware else ChannelMap()
+    templates = parse_node_commands(args.node_commands) if args.node_commands else None
+    address = parse_address(args.board) if args.board else None
+    reports = run_plan(
+        steps, channels, address, node_commands=templates, suggest=suggested_commands(args.ros)
+    )
+    if args.json:
+        print(json_text(reports_json(reports), args))
+    else:
+        done = sum(r.executed for r in reports)
+        print(f"executed {done} of {count(len(reports), 'step')}:")
+        for i, r in enumerate(reports, 1):
+            print(f"{i}. {r}" if r.executed else f"{i}. not run: {r}")
     return 0

@@ -7,13 +7,12 @@ from pathlib import Path
 from typing import Any
 
 from rac.commands.common import add_command, add_ros_option, ros_version
-from rac.diagnosis import load_theory
 from rac.errors import Diagnostic, RacError
-from rac.loader import load_observers
+from rac.load.files import load_observers
+from rac.load.theory import load_theory, robot_name
 from rac.logic import mangle
 from rac.observe.hobs import parse_channels
 from rac.passes.machines import machines_of, node_placements
-from rac.repair import robot_name
 from rac.runtime.nodes import RepairJob
 from rac.runtime.repairer import Mode, Settings
 
@@ -59,60 +58,66 @@ def register(sub: Any) -> None:
     parser.add_argument(
         "--observers", metavar="FILE", help="observers.yaml (default: beside MODEL)"
     )
-    parser.add_argument(
-        "--step-timeout",
-        metavar="S",
-        type=float,
-        default=5.0,
-        help="seconds a step may take to show its effect, from its request, then it is tried "
-        "once more (a node that did not stop is killed) (default: 5)",
-    )
-    parser.add_argument(
-        "--verify-timeout",
-        metavar="S",
-        type=float,
-        default=10.0,
-        help="seconds the engine has to report no fault after a plan (default: 10)",
-    )
     s = Settings()
-    parser.add_argument(
-        "--confirm",
-        metavar="S",
-        type=float,
-        default=s.confirm_s,
-        help=f"seconds a diagnosis must stand before a plan (default: {s.confirm_s:g})",
+    # (option, metavar, type, default, help): the repair policy's numbers (docs/runtime.md)
+    policy: tuple[tuple[str, str, type, float, str], ...] = (
+        (
+            "--step-timeout",
+            "S",
+            float,
+            5.0,
+            "seconds a step may take to show its effect, from its request, then it is tried "
+            "once more (a node that did not stop is killed) (default: 5)",
+        ),
+        (
+            "--verify-timeout",
+            "S",
+            float,
+            10.0,
+            "seconds the engine has to report no fault after a plan (default: 10)",
+        ),
+        (
+            "--confirm",
+            "S",
+            float,
+            s.confirm_s,
+            f"seconds a diagnosis must stand before a plan (default: {s.confirm_s:g})",
+        ),
+        (
+            "--startup-grace",
+            "S",
+            float,
+            s.startup_grace_s,
+            "seconds a node never seen running is left alone, from the repairer's start, "
+            "the node's first observation and the robot's return "
+            f"(default: {s.startup_grace_s:g})",
+        ),
+        (
+            "--budget",
+            "N",
+            int,
+            s.budget,
+            "repairs of one component within --budget-window; one more is escalated "
+            f"(RAC110) and the component left alone until the window frees (default: {s.budget})",
+        ),
+        (
+            "--budget-window",
+            "S",
+            float,
+            s.budget_window_s,
+            f"seconds of the repair budget's window (default: {s.budget_window_s:g})",
+        ),
+        (
+            "--backoff",
+            "S",
+            float,
+            s.backoff_s,
+            "seconds between a component's first and second repair in the window, doubled "
+            f"for each further one (default: {s.backoff_s:g})",
+        ),
     )
-    parser.add_argument(
-        "--startup-grace",
-        metavar="S",
-        type=float,
-        default=s.startup_grace_s,
-        help="seconds a node never seen running is left alone, from the repairer's start, "
-        f"the node's first observation and the robot's return (default: {s.startup_grace_s:g})",
-    )
-    parser.add_argument(
-        "--budget",
-        metavar="N",
-        type=int,
-        default=s.budget,
-        help="repairs of one component within --budget-window; one more is escalated "
-        f"(RAC110) and the component left alone until the window frees (default: {s.budget})",
-    )
-    parser.add_argument(
-        "--budget-window",
-        metavar="S",
-        type=float,
-        default=s.budget_window_s,
-        help=f"seconds of the repair budget's window (default: {s.budget_window_s:g})",
-    )
-    parser.add_argument(
-        "--backoff",
-        metavar="S",
-        type=float,
-        default=s.backoff_s,
-        help="seconds between a component's first and second repair in the window, doubled "
-        f"for each further one (default: {s.backoff_s:g})",
-    )
+    for option, metavar, kind, default, text in policy:
+        parser.add_argument(option, metavar=metavar, type=kind, default=default, help=text)
     modes = parser.add_mutually_exclusive_group()
     modes.add_argument(
         "--mode",

@@ -3,66 +3,17 @@
 from __future__ import annotations
 
 import argparse
-import re
 import sys
 import textwrap
 import time
 from pathlib import Path
 from typing import Any
 
-from rac.commands.common import (
-    add_command,
-    checked_truth,
-    load_and_compile,
-    write_file_atomically,
-)
-
-_DURATION = re.compile(r"\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*(ms|s)?\s*")
-MAX_PERIOD_S = 3600.0
-# A diagnosis tick every nanosecond would be 10^10 ticks for a 10 s run: replay never ended
-# (and below 1e-9 s the rounded clock stopped moving at all).
-MIN_PERIOD_S = 0.001
-
-
-def seconds(text: str) -> float:
-    """argparse type: ``1s``, ``500ms`` or a plain number of seconds, 1 ms to an hour."""
-    match = _DURATION.fullmatch(text)
-    if match is None:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a duration such as 1s, 500ms or 2.5")
-    value = float(match[1]) / (1000.0 if match[2] == "ms" else 1.0)
-    if not MIN_PERIOD_S <= value <= MAX_PERIOD_S:
-        raise argparse.ArgumentTypeError(
-            f"'{text}' must be from {MIN_PERIOD_S * 1000:g} ms to {MAX_PERIOD_S:g} s"
-        )
-    return value
-
-
-def card(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
-    if not 1 <= value <= 10:
-        raise argparse.ArgumentTypeError("must be from 1 to 10")
-    return value
-
-
-def add_replay_options(parser: argparse.ArgumentParser) -> None:
-    """Options replay and evaluate share."""
-    parser.add_argument(
-        "--diagnose-every",
-        metavar="PERIOD",
-        type=seconds,
-        default=1.0,
-        help="diagnose Θ this often, e.g. 1s or 500ms (default: 1s)",
-    )
-    parser.add_argument(
-        "--max-card",
-        metavar="K",
-        type=card,
-        default=3,
-        help="search diagnoses of at most K faulty components (default: 3)",
-    )
+from rac.commands.common import add_command, checked_truth, load_and_compile
+from rac.commands.options import add_replay_options
+from rac.commands.reports import draw_health
+from rac.load.drawing import check_suffix
+from rac.load.output import write_file_atomically
 
 
 def register(sub: Any) -> None:
@@ -144,8 +95,6 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         require_matplotlib()
     if args.diagram_at is not None:
-        from rac.commands.diagram import check_suffix
-
         check_suffix(args.diagram)  # before the replay, not after it
     compiled = load_and_compile(args.model, quiet=args.quiet)
     model = replayable(compiled)
@@ -169,8 +118,6 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         write_file_atomically(Path(args.output), to_jsonl(timeline))
     if args.diagram_at is not None:
-        from rac.commands.diagram import draw_health
-
         draw_health(compiled, args.diagram_at, timeline, args.diagram)
     if args.plot:
         title = f"{model.name}: {', '.join(Path(r).name for r in args.runs)}"

@@ -8,8 +8,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from rac.commands.common import add_command, add_ros_option, resolved_path, ros_version
-from rac.errors import Diagnostic, RacError
+from rac.commands.common import add_command, add_ros_option, ros_version
+from rac.load.output import resolved_path
+from rac.load.ros_package import write_package
 
 
 def register(sub: Any) -> None:
@@ -41,25 +42,6 @@ def register(sub: Any) -> None:
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing")
     add_ros_option(parser)
     parser.set_defaults(run=run)
-
-
-def write_package(out: Path, python: str | None = None, ros: int = 1) -> Path:
-    """The package's directory (ROS 1) or the prefix it is installed in (ROS 2)."""
-    if ros == 2:
-        from rac.ros2.package import package_files
-    else:
-        from rac.ros1.package import package_files
-
-    try:
-        for rel, text in package_files(python).items():
-            path = out / rel
-            path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_text(text, encoding="utf-8")
-            if "/scripts/" in rel or rel.startswith("lib/"):
-                path.chmod(0o755)
-    except OSError as err:
-        raise RacError([Diagnostic("RAC004", f"{out}: cannot write: {err}")]) from None
-    return out if ros == 2 else out / "racc"
 
 
 def run(args: argparse.Namespace) -> int:

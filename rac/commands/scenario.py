@@ -6,20 +6,20 @@
 from __future__ import annotations
 
 import argparse
+import asyncio
 import sys
 from typing import Any
 
-from rac.commands.board import add_scenario_options, run_board_scenario
+from rac.board.client import parse_address
+from rac.board.execute import parse_node_commands, suggested_commands
+from rac.board.scenario import render as render_scenario
+from rac.board.trip import device_shutdown_on_board
 from rac.commands.common import add_command, count, json_text
-from rac.commands.repair import (
-    EXIT_NO_PLAN,
-    VALIDATED,
-    add_planner_options,
-    plan_lines,
-    validated_json,
-)
-from rac.diagnosis import load_theory
-from rac.repair import PLANNER, SCENARIOS, Kind, NoRepairPlan, ScenarioResult, robot_name
+from rac.commands.options import add_planner_options, add_scenario_options
+from rac.commands.reports import EXIT_NO_PLAN, VALIDATED, plan_lines, validated_json
+from rac.load.board import load_board_channels
+from rac.load.theory import load_theory, robot_name
+from rac.repair import PLANNER, SCENARIOS, Kind, NoRepairPlan, ScenarioResult
 from rac.repair.scenario import run_scenario, state_json
 from rac.repair.validate import validate_plan
 
@@ -107,4 +107,35 @@ def run(args: argparse.Namespace) -> int:
         print(report(result))
         if args.validate and result.repair.plan:
             print(VALIDATED)
+    return 0
+
+
+def run_board_scenario(args: argparse.Namespace) -> int:
+    """``racc scenario MODEL device-shutdown --board …``: end to end against the board."""
+    if args.scenario != "device-shutdown":
+        print(
+            "racc scenario: error: --board runs the device-shutdown scenario only", file=sys.stderr
+        )
+        return 2  # a command line error, as argparse's
+    load_board_channels(args.model)  # a model.yaml fails here, clearly
+    theory = load_theory(args.model)
+    templates = parse_node_commands(args.node_commands) if args.node_commands else None
+    control = parse_address(args.board_control) if args.board_control else None
+    try:
+        result = asyncio.run(
+            device_shutdown_on_board(
+                theory,
+                robot_name(theory, args.model),
+                parse_address(args.board),
+                device=args.device,
+                control=control,
+                node_commands=templates,
+                suggest=suggested_commands(args.ros),
+                planner_timeout_s=args.planner_timeout,
+            )
+        )
+    except NoRepairPlan as err:
+        print(err.render(), file=sys.stderr)
+        return 3
+    print(json_text(result.to_json(), args) if args.json else render_scenario(result))
     return 0

@@ -5,10 +5,12 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from rac.analysis.modes import MODES
 from rac.commands.common import add_command, json_text
-from rac.commands.diagnose import add_with_good_option, card, require_json_for_good, to_json
-from rac.diagnosis import Simulation, all_single_faults, ambiguity_groups, load_theory, simulate
+from rac.commands.options import add_max_card_option, add_with_good_option, require_json_for_good
+from rac.commands.reports import diagnosis_json
+from rac.diagnosis import Simulation, all_single_faults, ambiguity_groups, simulate
+from rac.diagnosis.modes import MODES
+from rac.load.theory import load_theory
 
 
 def register(sub: Any) -> None:
@@ -38,13 +40,7 @@ def register(sub: Any) -> None:
     what.add_argument(
         "--all-single-faults", action="store_true", help="inject each component's fault in turn"
     )
-    parser.add_argument(
-        "--max-card",
-        metavar="K",
-        type=card,
-        default=None,
-        help="search diagnoses of at most K faulty components (default: no bound)",
-    )
+    add_max_card_option(parser)
     parser.add_argument(
         "--mode",
         choices=MODES,
@@ -81,7 +77,7 @@ def single_json(sim: Simulation, with_good: bool = False) -> dict[str, Any]:
         "mode": sim.mode,
         "observations": [str(o) for o in sim.observations],
         "detected": sim.detected,
-        **to_json(sim.result, with_good),
+        **diagnosis_json(sim.result, with_good),
         "found": sim.found,
         "isolated": sim.isolated,
         "bounded": sim.result.bounded,

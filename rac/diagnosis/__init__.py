@@ -1,6 +1,6 @@
 """Consistency-based diagnosis (§3.4, chapter 6): theories, observations, minimal diagnoses.
 
-``load_theory`` reads a ``.ram``/``.json`` model or a model-server ``model.yaml``;
+:class:`Theory` is the model reasoned over (``rac.load.theory`` reads one from a file);
 ``parse_literal`` and ``collect`` build the observation set Θ (Algorithm 10);
 ``diagnose`` returns the minimal conflicts and all minimal diagnoses.
 """
@@ -13,7 +13,7 @@ from rac.diagnosis.simulate import (
     predict,
     simulate,
 )
-from rac.diagnosis.theory import Literal, Theory, collect, load_theory, parse_literal
+from rac.diagnosis.theory import Literal, Theory, collect, parse_literal
 
 __all__ = [
     "DiagnosisResult",
@@ -26,7 +26,6 @@ __all__ = [
     "compile_theory",
     "diagnose",
     "is_consistent",
-    "load_theory",
     "parse_literal",
     "predict",
     "simulate",

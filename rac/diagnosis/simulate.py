@@ -9,6 +9,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from rac.diagnosis.modes import check_mode, observe, truth_model
 from rac.diagnosis.result import DiagnosisResult, compile_theory, diagnose
 from rac.diagnosis.theory import Literal, Theory
 from rac.errors import Diagnostic, RacError, did_you_mean
@@ -20,7 +21,7 @@ class Simulation:
     faults: tuple[str, ...]  # the injected set, sorted
     observations: tuple[Literal, ...]
     result: DiagnosisResult
-    mode: str = "crash"  # how the faults fail (rac.analysis.modes)
+    mode: str = "crash"  # how the faults fail (rac.diagnosis.modes)
 
     @property
     def detected(self) -> bool:
@@ -100,8 +101,6 @@ def simulate(
     theory: Theory, faults: Sequence[str], max_card: int | None = None, mode: str = "crash"
 ) -> Simulation:
     """Inject ``faults`` failing in ``mode`` (crash, output, silent-hardware) and diagnose."""
-    from rac.analysis.modes import check_mode, observe  # the modes build on this package
-
     injected = check_components(theory, faults)
     check_mode(theory, mode, injected)
     observations = predict(theory, injected) if mode == "crash" else observe(theory, mode, injected)
@@ -116,8 +115,6 @@ def all_single_faults(
     if mode == "crash":
         comps = theory.components
     else:
-        from rac.analysis.modes import truth_model
-
         truth = truth_model(theory)
         comps = tuple(c for c in theory.components if truth.applies(mode, c))
     return tuple(simulate(theory, (c,), max_card, mode) for c in comps)

@@ -14,9 +14,7 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING
 
 from rac.errors import Diagnostic, RacError, Span, did_you_mean
-from rac.loader import read_text
-from rac.logic import AB, COMPACT_ATOM, FALSE, NAB, NEG_PREFIX, Atom, Clause, mangle, parse_atom
-from rac.perf import paused_gc
+from rac.logic import AB, FALSE, NAB, NEG_PREFIX, Atom, Clause, mangle, parse_atom
 
 if TYPE_CHECKING:  # the compiler loads only for .ram/.json models
     from rac.ir import Model
@@ -58,7 +56,7 @@ class Theory:
     model: Model | None = None
     # the robot's name from the header line racc writes atop a model.yaml (None: no header)
     robot: str | None = field(default=None, compare=False)
-    # the clauses already numbered (rac.diagnosis.model_yaml): a speed-up, never a meaning
+    # the clauses already numbered (rac.load.model_yaml): a speed-up, never a meaning
     table: ClauseTable | None = field(default=None, compare=False, repr=False)
 
     def negate(self, atom: Atom) -> Atom:
@@ -96,24 +94,6 @@ def components_of(clauses: Iterable[Clause], ab: str = AB, nab: str = NAB) -> tu
     return tuple(sorted(found))
 
 
-def load_theory(path: str) -> Theory:
-    """A theory from a ``.ram``/``.json`` model (compiled) or a ``.yaml``/``.yml`` file."""
-    if path.endswith((".yaml", ".yml")):
-        from rac.diagnosis.model_yaml import parse_model_yaml  # it imports Theory from here
-
-        return parse_model_yaml(read_text(path), path)
-    from rac.loader import load_model
-    from rac.pipeline import compile_model
-
-    compiled = compile_model(load_model(path))
-    return Theory(
-        clauses=compiled.rbm,
-        props=compiled.props,
-        components=compiled.components,
-        model=compiled.model,
-    )
-
-
 def known_atoms(theory: Theory) -> frozenset[Atom]:
     """Positive forms of every atom the theory mentions (props and rules, not AB/NAB)."""
     atoms: set[Atom] = set(theory.props)
@@ -140,14 +120,6 @@ def parse_literal(text: str, theory: Theory) -> Literal:
     return literal_at(text, theory, None)
 
 
-def known_lookup(theory: Theory) -> Container[Atom]:
-    """``known_atoms(theory)`` as a look-up in the theory's clause index (built once per
-    theory and shared with the engine), without building a set of every atom."""
-    from rac.diagnosis.result import compile_theory  # it imports this module
-
-    return compile_theory(theory).known
-
-
 def literal_at(
     text: str,
     theory: Theory,
@@ -156,8 +128,8 @@ def literal_at(
 ) -> Literal:
     """:func:`parse_literal`, with ``(file, line, column)`` for the diagnostic span.
 
-    ``known`` is :func:`known_atoms` of ``theory`` (or :func:`known_lookup`), when the caller
-    has it: a file of literals computes it once, not once per line.
+    ``known`` is :func:`known_atoms` of ``theory`` (or the clause index's ``known``), when
+    the caller has it: a file of literals computes it once, not once per line.
     """
     span = None
     if where is not None:
@@ -235,63 +207,3 @@ def collect(literals: Iterable[Literal]) -> tuple[Literal, ...]:
         held.pop(literal.atom, None)  # later wins; keep insertion order of the latest
         held[literal.atom] = literal
     return tuple(held.values())
-
-
-# ``ok(x)``, ``not ok(x)`` or ``not_ok(x,y)`` alone on a line: the layout of a generated file.
-_PLAIN_LITERAL = re.compile(rf" *(not +)?{COMPACT_ATOM} *")
-
-
-# The same, one per line of a whole file, in one pass (a file of tens of thousands of lines).
-_PLAIN_LINES = re.compile(rf"^{_PLAIN_LITERAL.pattern}$", re.MULTILINE)
-
-
-def plain_lines(text: str) -> list[tuple[str, str, str]] | None:
-    """Each line as (negation, predicate, arguments) when every line is a plain literal
-    (``ok(x)``, ``not ok(x)``: the layout of a generated file); None when any is not
-    (a comment, a blank line, another spelling), for the line-by-line reader."""
-    found: list[tuple[str, str, str]] = _PLAIN_LINES.findall(text)
-    lines = text.count("\n") + (not text.endswith("\n"))
-    return found if len(found) == lines else None  # a match never spans two lines
-
-
-def parse_observations(
-    text: str, file: str, theory: Theory, known: Container[Atom] | None = None
-) -> tuple[Literal, ...]:
-    """An observation file: one literal per line, ``#`` starts a comment, blank lines skipped.
-
-    Every bad line is reported (RAC040/RAC041) with ``file:line:column``.
-    """
-    with paused_gc():  # tens of thousands of literals, none cyclic (rac.perf)
-        return _parse_observations(text, file, theory, known)
-
-
-def _parse_observations(
-    text: str, file: str, theory: Theory, known: Container[Atom] | None
-) -> tuple[Literal, ...]:
-    literals: list[Literal] = []
-    errors: list[Diagnostic] = []
-    if known is None:
-        known = known_lookup(theory)
-    plain = _PLAIN_LITERAL.fullmatch
-    prefix, assumptions = theory.neg_prefix, (theory.ab, theory.nab)
-    for number, line in enumerate(text.splitlines(), start=1):
-        found = plain(line)
-        if found is not None:  # the common case, read in one match; the rest as below
-            negation, pred, args = found.groups()
-            atom = Atom(pred, tuple(args.split(",")) if args else ())
-            if pred.startswith(prefix) or pred in assumptions or atom not in known:
-                found = None  # the general path flips the prefix or says what is wrong
-            else:
-                literals.append(Literal(atom, negation is None, prefix))
-                continue
-        content = line.split("#", 1)[0]
-        if not content.strip():
-            continue
-        column = len(content) - len(content.lstrip()) + 1
-        try:
-            literals.append(literal_at(content.strip(), theory, (file, number, column), known))
-        except RacError as err:
-            errors.extend(err.diagnostics)
-    if errors:
-        raise RacError(errors, text)
-    return tuple(literals)

@@ -1,58 +1,23 @@
-"""Read recorded runs (ROS 1 .bag files, ROS 2 bag directories) into numeric signals.
+"""Recorded runs as numeric signals (:mod:`rac.load.bags` reads them from bags).
 
-Each run becomes one :class:`Run`: per topic the receive times and a matrix of the selected
+Each run is one :class:`Run`: per topic the receive times and a matrix of the selected
 field values.  :func:`merge_runs` joins several runs into one training set (Algorithm 19).
 """
 
 from __future__ import annotations
 
-import struct
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
 
-import apsw
 import numpy as np
 import numpy.typing as npt
-from rosbags.highlevel import AnyReader, AnyReaderError
-from rosbags.interfaces import Connection
-from rosbags.rosbag1 import Reader as Reader1
-from rosbags.rosbag1 import ReaderError as Rosbag1Error
-from rosbags.rosbag2 import ReaderError as Rosbag2Error
-from rosbags.serde import SerdeError
-from rosbags.typesys import Stores, get_typestore
-from rosbags.typesys.base import TypesysError
-from rosbags.typesys.store import Typestore
 
 from rac.errors import Diagnostic, RacError
-from rac.learn.fields import FieldSelector, FloatArray, layout_of, with_angles
-from rac.learn.raw import row_reader
-from rac.limits import check_yaml_limits
-from rac.loader import read_text
+from rac.learn.fields import FloatArray
 from rac.observe.events import Message
 
 IntArray = npt.NDArray[np.int64]
-_WRAPPING = frozenset({"yaw", "roll"})  # derived angles unwrapped into continuous signals
-# What a damaged bag raises while its messages are read: rosbags' own errors, the
-# struct/index/assert failures of its parsers meeting corrupt bytes, SQLite's (through apsw)
-# on a damaged database page met while iterating, and OverflowError on a damaged MCAP length
-# too large for a read.
-_DAMAGED = (
-    AnyReaderError,
-    Rosbag1Error,
-    Rosbag2Error,
-    SerdeError,
-    TypesysError,
-    OSError,
-    ValueError,
-    KeyError,
-    IndexError,
-    EOFError,
-    AssertionError,
-    OverflowError,
-    struct.error,
-    apsw.Error,
-)
+WRAPPING = frozenset({"yaw", "roll"})  # derived angles unwrapped into continuous signals
 
 
 @dataclass(frozen=True, slots=True)
@@ -108,194 +73,6 @@ class Recording:
         return {t.name: t for t in self.topics}
 
 
-def model_type_name(msgtype: str) -> str:
-    """``sensor_msgs/msg/Imu`` -> ``sensor_msgs/Imu``, the spelling models use."""
-    return msgtype.replace("/msg/", "/")
-
-
-# The longest run racc reads (a week).  Replay steps the observers through it in 0.1 s
-# steps, and learning takes its rates and windows from it: one message stamped 1970 in a bag
-# of today would make that fifty years.
-MAX_SPAN_S = 7 * 86400.0
-
-
-def far_off_stamp(path: str, span: float) -> RacError:
-    """RAC080 for a recording whose time stamps span more than :data:`MAX_SPAN_S`."""
-    message = (
-        f"{path}: its messages span {span / 86400:,.0f} days "
-        f"(at most {MAX_SPAN_S / 86400:g}): a time stamp is far off"
-    )
-    hint = "was simulated time mixed with wall-clock time while recording?"
-    return RacError([Diagnostic("RAC080", message, hint=hint)])
-
-
-def _fail(path: str, why: str) -> RacError:
-    hint = "a RUN is a ROS 1 .bag file or a ROS 2 bag directory (sqlite3 or mcap)"
-    return RacError([Diagnostic("RAC080", f"{path}: cannot read the recording: {why}", hint=hint)])
-
-
-def read_run(
-    path: str | Path, selector: FieldSelector, topics: frozenset[str] | None = None
-) -> Run:
-    """Every topic of one recording (or only ``topics``), with the fields ``selector`` wants."""
-    p = Path(path)
-    try:
-        if not p.exists():  # inside: a name too long for the file system raises here
-            raise _fail(str(path), "no such file or directory")
-        if p.is_dir():
-            _check_metadata(p, str(path))
-        # Bags written without message definitions (older ROS 2) fall back to the standard types.
-        store = get_typestore(Stores.ROS2_HUMBLE if p.is_dir() else Stores.ROS1_NOETIC)
-        try:
-            with AnyReader([p], default_typestore=store) as reader:
-                return _read(reader, str(path), selector, topics)
-        except (TypesysError, AnyReaderError) as err:
-            # Old ROS 1 bags define `Header` as roslib/Header, which the definitions the bag
-            # carries then lack: decode with Noetic's own definitions instead.
-            if p.is_dir() or "is unknown" not in str(err):
-                raise
-            with Reader1(p) as bag:
-                return _read(_WithTypestore(bag, store), str(path), selector, topics)
-    except _DAMAGED as err:
-        raise _fail(str(path), _damage(err, p)) from None
-    except MemoryError:
-        # A damaged length field (an MCAP record's, say) asks the reader for terabytes.
-        why = "reading it ran out of memory: a length in it is damaged, or the run is too large"
-        raise _fail(str(path), why) from None
-
-
-def _damage(err: Exception, path: Path) -> str:
-    """What a damaged recording's error says, for a user: the storage file it was met in."""
-    why = str(err) or f"damaged ({type(err).__name__})"
-    if isinstance(err, KeyError | IndexError | AssertionError) and str(err):
-        # Their text alone is a bare key or index ("'sensor_msgs/msg/Imu'").
-        why = f"damaged or inconsistent ({type(err).__name__}: {err})"
-    elif isinstance(err, OverflowError):  # "cannot fit 'int' into an index-sized integer"
-        why = f"a length in it is damaged (OverflowError: {err})"
-    elif isinstance(err, apsw.Error):
-        why = f"its SQLite database is damaged ({err})"
-    if isinstance(err, OverflowError | apsw.Error) and path.is_dir():
-        why = f"{_storage_files(path)}: {why}"
-    return why
-
-
-def _storage_files(directory: Path) -> str:
-    """The storage files of a ROS 2 bag directory, by name."""
-    try:
-        names = [f.name for f in sorted(directory.iterdir()) if f.suffix in (".db3", ".mcap")]
-    except OSError:
-        names = []
-    return ", ".join(names) or "its storage file"
-
-
-def _check_metadata(directory: Path, path: str) -> None:
-    """A ROS 2 bag's metadata.yaml within racc's YAML limits, before rosbags' YAML reader
-    (ruamel.yaml, recursive) reads it: nested 600 deep it ran out of stack.  RAC080 at the
-    line of the metadata.yaml; one that is not YAML is left to rosbags to report."""
-    metadata = directory / "metadata.yaml"
-    if not metadata.is_file():
-        return
-    try:
-        check_yaml_limits(read_text(metadata, "RAC080"), str(metadata))
-    except RacError as err:
-        found = err.diagnostics[0]
-        message = f"{path}: cannot read the recording: its metadata.yaml: {found.message}"
-        hint = "the bag's metadata.yaml is damaged: 'ros2 bag reindex' writes it anew"
-        raise RacError([Diagnostic("RAC080", message, found.span, hint=hint)], err.source) from None
-
-
-class _WithTypestore:
-    """A ROS 1 bag read through a fixed typestore, its own message definitions ignored
-    (the part of AnyReader's interface :func:`_read` uses)."""
-
-    is2 = False
-
-    def __init__(self, bag: Reader1, typestore: Typestore) -> None:
-        self.bag = bag
-        self.typestore = typestore
-        self.connections = bag.connections
-
-    def messages(
-        self, connections: Sequence[Connection]
-    ) -> Iterator[tuple[Connection, int, bytes]]:
-        return self.bag.messages(connections=connections)
-
-    def deserialize(self, rawdata: bytes, typ: str) -> object:
-        return self.typestore.deserialize_ros1(rawdata, typ)
-
-
-def _read(
-    reader: AnyReader | _WithTypestore,
-    path: str,
-    selector: FieldSelector,
-    only: frozenset[str] | None,
-) -> Run:
-    fielddefs = reader.typestore.fielddefs
-    connections = [c for c in reader.connections if only is None or c.topic in only]
-    types: dict[str, str] = {}
-    publishers: dict[str, set[str]] = {}
-    for conn in connections:
-        if types.setdefault(conn.topic, conn.msgtype) != conn.msgtype:
-            raise _fail(path, f"topic {conn.topic} is recorded with two types")
-        callerid = getattr(conn.ext, "callerid", None)
-        names = publishers.setdefault(conn.topic, set())
-        if callerid:
-            names.add(callerid.removeprefix("/"))
-    layouts = {t: layout_of(fielddefs, m, t, selector) for t, m in types.items()}
-    # Each message's row comes straight from its bytes where the type allows (rac.learn.raw).
-    cdr = reader.is2
-    extract = {
-        t: row_reader(reader.typestore, types[t], lay, cdr=cdr, deserialize=reader.deserialize)
-        for t, lay in layouts.items()
-        if not lay.empty
-    }
-    stamps: dict[str, list[int]] = {t: [] for t in types}
-    rows: dict[str, list[tuple[float, ...]]] = {t: [] for t in extract}
-    count = 0
-    # rosbags reads every connection when given none: none wanted means nothing to read.
-    for conn, stamp, raw in reader.messages(connections=connections) if connections else ():
-        count += 1
-        if not isinstance(raw, bytes | memoryview | bytearray):
-            # a damaged SQLite row: its data column reads NULL or text, not a blob
-            why = f"message {count} on {conn.topic} is not bytes: the database is damaged"
-            raise _fail(path, why)
-        stamps[conn.topic].append(stamp)
-        get = extract.get(conn.topic)
-        if get is not None:
-            rows[conn.topic].append(get(raw))
-    data = []
-    for name in sorted(types):
-        if not stamps[name]:
-            continue
-        times = np.asarray(stamps[name], dtype=np.float64) * 1e-9
-        lay = layouts[name]
-        matrix = np.asarray(rows.get(name, []), dtype=np.float64).reshape(len(times), -1)
-        values = np.ascontiguousarray(with_angles(lay, matrix).T)
-        for i, f in enumerate(lay.fields):
-            if f in _WRAPPING and f in lay.euler and values.shape[1] > 1:
-                values[i] = np.unwrap(values[i])
-        data.append(
-            TopicData(
-                name=name,
-                msg_type=model_type_name(types[name]),
-                publishers=tuple(sorted(publishers[name])),
-                times=times,
-                segments=np.zeros(times.size, dtype=np.int64),
-                fields=lay.fields,
-                values=values,
-            )
-        )
-    if not data:
-        raise _fail(path, "it holds no messages")
-    start = min(float(t.times[0]) for t in data)
-    end = max(float(t.times[-1]) for t in data)
-    if end - start > MAX_SPAN_S:
-        raise far_off_stamp(path, end - start)
-    ros_version = 2 if reader.is2 else 1
-    skipped = tuple(sorted({c.topic for c in reader.connections} - set(types)))
-    return Run(path, ros_version, start, end, tuple(data), count, skipped)
-
-
 def merge_runs(runs: Sequence[Run]) -> Recording:
     """Algorithm 19: shift each run to start where the previous one ended, then concatenate.
 
@@ -339,7 +116,7 @@ def _concat(parts: list[TopicData], runs: Sequence[Run]) -> TopicData:
         return first
     values = np.concatenate([p.values for p in parts], axis=1)
     for i, f in enumerate(first.fields):
-        if f in _WRAPPING:
+        if f in WRAPPING:
             values[i] = np.unwrap(values[i])
     return TopicData(
         first.name,
@@ -350,12 +127,6 @@ def _concat(parts: list[TopicData], runs: Sequence[Run]) -> TopicData:
         first.fields,
         values,
     )
-
-
-def read_recording(
-    paths: Sequence[str | Path], selector: FieldSelector, topics: frozenset[str] | None = None
-) -> Recording:
-    return merge_runs([read_run(p, selector, topics) for p in paths])
 
 
 def message_stream(

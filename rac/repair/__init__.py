@@ -6,7 +6,7 @@
 from __future__ import annotations
 
 from rac.repair.choice import STRATEGIES, choose_bad
-from rac.repair.engine import Prepared, RepairResult, prepare, repair_system, robot_name, solve
+from rac.repair.engine import Prepared, RepairResult, prepare, repair_system, solve
 from rac.repair.errors import NoRepairPlan
 from rac.repair.planner import DEFAULT_TIMEOUT_S, PLANNER, Step, parse_plan, run_planner
 from rac.repair.problem import RepairProblem, make_problem, render_problem
@@ -38,7 +38,6 @@ __all__ = [
     "prepare",
     "render_problem",
     "repair_system",
-    "robot_name",
     "run_planner",
     "run_scenario",
     "simulate",

@@ -7,14 +7,11 @@ checks its plan against the domain's semantics.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 from rac.diagnosis import DiagnosisResult, Literal, Theory, diagnose
-from rac.logic import mangle
 from rac.repair.choice import choose_bad
 from rac.repair.errors import NoRepairPlan
 from rac.repair.planner import DEFAULT_TIMEOUT_S, PLANNER, Step, run_planner
@@ -59,18 +56,6 @@ class RepairResult:
             "plan": [list(step) for step in self.plan],
             "planner": PLANNER,
         }
-
-
-def robot_name(theory: Theory, path: str) -> str:
-    """The RAM's name; for a model server file, the name in racc's header line, else its
-    stem (its directory's name for model.yaml)."""
-    if theory.model is not None:
-        return theory.model.name.value
-    if theory.robot is not None:
-        return theory.robot
-    file = Path(path)
-    stem = file.parent.resolve().name if file.stem == "model" else file.stem
-    return re.sub(r"[^A-Za-z0-9_]", "_", mangle(stem)) or "robot"
 
 
 def repair_system(theory: Theory) -> RepairSystem:

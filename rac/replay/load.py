@@ -8,12 +8,13 @@ from pathlib import Path
 
 from rac.diagnosis.theory import Theory
 from rac.errors import Diagnostic, RacError
-from rac.loader import is_file
+from rac.load.faults import load_truth
+from rac.load.files import is_file
 from rac.observe.bank import ObserverBank
 from rac.passes.observers import ObserverSpec
 from rac.pipeline import Compiled
 from rac.replay.sources import Needs, RunInputs, load_run, properties_beside, shifted
-from rac.synth.truth import GroundTruth, load_truth, truth_path
+from rac.synth.truth import GroundTruth, truth_path
 
 
 @dataclass(frozen=True, slots=True)

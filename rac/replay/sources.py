@@ -39,9 +39,10 @@ from rosbags.typesys import Stores, get_typestore
 from rac.errors import Diagnostic, RacError
 from rac.learn.fields import FieldSelector
 from rac.learn.properties import csv_rows, properties_error
-from rac.learn.recording import MAX_SPAN_S, Run, far_off_stamp, message_stream, read_run
+from rac.learn.recording import Run, message_stream
 from rac.learn.stamps import stamp_reader
-from rac.loader import read_text
+from rac.load.bags import MAX_SPAN_S, far_off_stamp, read_run
+from rac.load.files import read_text
 from rac.observe.dobs import violations_first
 from rac.observe.events import (
     ChannelState,

@@ -9,6 +9,7 @@ from typing import Any
 
 from rac.passes.machines import node_placements
 from rac.passes.observers import ObserverSpec
+from rac.ros2.actuator import Ros2Actuator
 from rac.ros2.common import Session, reliable
 from rac.runtime.nodes import RepairJob
 from rac.runtime.repairer import Actuator
@@ -48,8 +49,6 @@ def start_agent(
     if machine is None:
         return None
     from diagnostic_msgs.msg import KeyValue
-
-    from rac.ros2.repairer import Ros2Actuator
 
     local = Ros2Actuator(session, launch, None) if launch else None
     agent = Agent(machine, node_placements(specs), local)

@@ -91,7 +91,7 @@ def split_ros_args(argv: Sequence[str]) -> tuple[list[str], list[str]]:
 
 
 # ROS arguments (``--ros-args -r __node:=NAME ...``) of this process: the executables of
-# the racc package put them here (:mod:`rac.ros2.entry`) before running a racc command.
+# the racc package put them here (:mod:`rac.entry_ros2`) before running a racc command.
 ROS_ARGS: list[str] = []
 
 

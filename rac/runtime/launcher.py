@@ -39,7 +39,7 @@ RACC_EXECUTABLES = {
 ENTRY = (
     "import sys\n"
     "try:\n"
-    "    from rac.ros{ros}.entry import main\n"
+    "    from rac.entry_ros{ros} import main\n"
     "except KeyboardInterrupt:\n"
     "    sys.exit(0)\n"
     "sys.exit(main(sys.argv[1], sys.argv[2:]))\n"

@@ -289,13 +289,6 @@ def parse_truth(text: str, file: str) -> GroundTruth:
     return GroundTruth(robot, duration, tuple(found), _span(file, root), text)
 
 
-def load_truth(path: str | Path) -> GroundTruth:
-    """Read and parse a faults file (RAC085 when it cannot be read)."""
-    from rac.loader import read_text
-
-    return parse_truth(read_text(path, "RAC085"), str(path))
-
-
 def check_truth(
     truth: GroundTruth, models: Sequence[Model], robot: bool = True
 ) -> list[Diagnostic]:

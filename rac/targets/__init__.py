@@ -9,40 +9,29 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from rac.perf import paused_gc
-from rac.pipeline import Compiled
+from rac.targets.options import (
+    DEFAULT_MODEL_SERVER_PACKAGE,
+    DEFAULT_OBSERVERS_PACKAGE,
+    EmitOptions,
+)
 
-DEFAULT_OBSERVERS_PACKAGE = "tug_ist_diagnosis_observers"
-DEFAULT_MODEL_SERVER_PACKAGE = "tug_ist_diagnosis_model"
+if TYPE_CHECKING:
+    from rac.pipeline import Compiled
 
+__all__ = [
+    "DEFAULT_MODEL_SERVER_PACKAGE",
+    "DEFAULT_OBSERVERS_PACKAGE",
+    "EmitOptions",
+    "Emitter",
+    "Target",
+    "emit_all",
+    "targets",
+]
 
-@dataclass(frozen=True, slots=True)
-class EmitOptions:
-    """Knobs a user may turn from the command line.
-
-    With neither package given, both launch files start racc's own runtime (the ``racc``
-    ROS 1 or ROS 2 package); naming either one selects the dissertation's stack of one node
-    per observer and a model server, with the other package at its default.
-    """
-
-    observers_package: str | None = None
-    model_server_package: str | None = None
-
-    @property
-    def stack(self) -> bool:
-        return self.observers_package is not None or self.model_server_package is not None
-
-    @property
-    def observers(self) -> str:
-        return self.observers_package or DEFAULT_OBSERVERS_PACKAGE
-
-    @property
-    def model_server(self) -> str:
-        return self.model_server_package or DEFAULT_MODEL_SERVER_PACKAGE
-
-
-Emitter = Callable[[Compiled, EmitOptions], str]
+Emitter = Callable[["Compiled", EmitOptions], str]
 
 
 @dataclass(frozen=True, slots=True)
@@ -54,6 +43,8 @@ class Target:
 
 
 def _registry() -> tuple[Target, ...]:
+    # The emitters (and Jinja2) load on first use, for start-up time: importing one module
+    # of this package (racc repair: pddl_domain; racc ros-package) must not load them all.
     from rac.targets import dot, launch_ros1, launch_ros2, model_yaml, observers_yaml, pddl_domain
 
     return (

@@ -31,7 +31,6 @@ from rac.fmt import format_limits, format_number
 from rac.ir import Model, Node, Topic
 from rac.passes.observers import ObserverSpec
 from rac.pipeline import Compiled
-from rac.targets import EmitOptions
 from rac.targets.coverage import (
     TOPIC_ID,
     Health,
@@ -42,6 +41,7 @@ from rac.targets.coverage import (
     marks,
     watches,
 )
+from rac.targets.options import EmitOptions
 from rac.targets.templating import render
 
 # A topic with more publisher/subscriber pairs than this becomes a node of its own: one

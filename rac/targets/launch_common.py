@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from rac.pipeline import Compiled
-from rac.targets import EmitOptions
+from rac.targets.options import EmitOptions
 from rac.targets.templating import XML_SPECIAL, render, xmlattr
 
 MODEL_SERVER_EXECUTABLE = "diagnosis_model_server.py"

@@ -4,8 +4,8 @@ the dissertation's model server and one node per observer."""
 from __future__ import annotations
 
 from rac.pipeline import Compiled
-from rac.targets import EmitOptions
 from rac.targets.launch_common import render_launch, render_runtime_launch
+from rac.targets.options import EmitOptions
 
 
 def emit_launch_ros1(compiled: Compiled, options: EmitOptions) -> str:

@@ -5,8 +5,8 @@ observer, as observers.launch does for ROS 1."""
 from __future__ import annotations
 
 from rac.pipeline import Compiled
-from rac.targets import EmitOptions
 from rac.targets.launch_common import render_launch, render_runtime_launch
+from rac.targets.options import EmitOptions
 
 
 def emit_launch_ros2(compiled: Compiled, options: EmitOptions) -> str:

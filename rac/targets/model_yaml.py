@@ -6,7 +6,8 @@ from typing import Any
 
 from rac.logic import AB, NAB, NEG_PREFIX, Atom
 from rac.pipeline import Compiled
-from rac.targets import EmitOptions, yaml_text
+from rac.targets import yaml_text
+from rac.targets.options import EmitOptions
 
 
 def emit_model_yaml(compiled: Compiled, options: EmitOptions) -> str:

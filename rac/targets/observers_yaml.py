@@ -6,7 +6,8 @@ from typing import Any
 
 from rac.passes.observers import ObserverSpec
 from rac.pipeline import Compiled
-from rac.targets import EmitOptions, yaml_text
+from rac.targets import yaml_text
+from rac.targets.options import EmitOptions
 
 _NEXT_REPORT = "\n  - "  # between two items of an entry's reports
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from rac.logic import mangle
 from rac.pipeline import Compiled
-from rac.targets import EmitOptions
+from rac.targets.options import EmitOptions
 from rac.targets.templating import render
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from rac.diagnosis.theory import Literal
-from rac.loader import load_model
+from rac.load.files import load_model
 from rac.logic import Atom
 from rac.observe import (
     ChannelState,

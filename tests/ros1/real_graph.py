@@ -63,7 +63,7 @@ def write_robot_launch(directory: Path) -> Path:
 
 def compile_model(model: Path, build: Path, env: dict[str, str]) -> int:
     """``racc compile``; the number of atoms the observers report."""
-    from rac.loader import load_observers
+    from rac.load.files import load_observers
 
     subprocess.run(
         [*RACC, "compile", str(model), "-o", str(build), "--no-svg", "-q"],

@@ -38,7 +38,7 @@ if shutil.which("roscore") is None or shutil.which("roslaunch") is None:
         raise RuntimeError("roscore/roslaunch are not installed")
     pytest.skip("roscore/roslaunch are not installed", allow_module_level=True)
 
-from rac.loader import load_observers
+from rac.load.files import load_observers
 
 ROOT = Path(__file__).resolve().parents[2]
 TEDUSAR = ROOT / "models" / "tedusar.ram"

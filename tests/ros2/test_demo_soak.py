@@ -77,7 +77,7 @@ def model_without_interval(tmp: Path) -> Path:
 def test_demo_robot_soak_under_load_repairs_nothing_on_ros2(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from rac.loader import load_observers
+    from rac.load.files import load_observers
     from rac.ros2.launch import command_line, load_launch
 
     env = ros2_env(tmp_path)

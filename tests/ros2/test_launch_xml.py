@@ -18,11 +18,11 @@ from pathlib import Path
 
 import pytest
 
-from rac.commands.demo import launch_xml_text
-from rac.loader import load_model
+from rac.load.files import load_model
 from rac.pipeline import compile_model
 from rac.ros2.launch import load_launch
 from rac.targets import EmitOptions, targets
+from rac.targets.demo_launch import launch_xml_text
 
 ROOT = Path(__file__).resolve().parents[2]
 

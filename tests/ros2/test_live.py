@@ -36,7 +36,7 @@ else:
         "rclpy", reason="ROS 2 (rclpy) is not importable: see the README, 'On a ROS 2 robot'"
     )
 
-from rac.loader import load_observers
+from rac.load.files import load_observers
 
 ROOT = Path(__file__).resolve().parents[2]
 TEDUSAR = ROOT / "models" / "tedusar.ram"

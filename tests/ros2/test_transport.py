@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 
 from rac.commands.common import ros_version
-from rac.commands.ros_package import write_package
 from rac.errors import RacError
+from rac.load.ros_package import write_package
 from rac.ros2.common import split_ros_args
 from rac.ros2.launch import command_line, load_launch
 from rac.runtime.procs import innermost, node_processes, outermost
@@ -104,7 +104,7 @@ def test_the_ros2_actuator_starts_detached_stops_politely_and_kills(tmp_path: Pa
     import os
     import signal
 
-    from rac.ros2.repairer import Ros2Actuator
+    from rac.ros2.actuator import Ros2Actuator
     from rac.runtime.detached import Detached
 
     actuator = Ros2Actuator.__new__(Ros2Actuator)  # no rclpy session: switching is not tested

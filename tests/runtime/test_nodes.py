@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from rac.diagnosis import load_theory
-from rac.loader import load_model
+from rac.load.files import load_model
+from rac.load.theory import load_theory
 from rac.logic import Atom
 from rac.observe import Verdict
 from rac.passes.observers import DIAGNOSTICS_TOPIC

@@ -19,7 +19,7 @@ import psutil
 import pytest
 from live_procs import NetPair, can_make_netns
 
-from rac.diagnosis import load_theory
+from rac.load.theory import load_theory
 from rac.logic import Atom
 from rac.observe import NodeSample, PropertySample, Verdict
 from rac.passes.observers import ObserverSpec

@@ -12,9 +12,10 @@ from pathlib import Path
 
 import pytest
 
-from rac.diagnosis import Theory, load_theory
+from rac.diagnosis import Theory
 from rac.errors import Diagnostic, RacError
-from rac.loader import load_model
+from rac.load.files import load_model
+from rac.load.theory import load_theory
 from rac.logic import Atom
 from rac.observe import Verdict
 from rac.pipeline import compile_model

@@ -144,7 +144,7 @@ def test_a_lost_host_has_its_atoms_unknown(tmp_path: Path) -> None:
     build.mkdir()
     for name, text in emit_all(_compiled(), EmitOptions()).items():
         (build / name).write_text(text, encoding="utf-8")
-    from rac.diagnosis import load_theory
+    from rac.load.theory import load_theory
 
     logged: list[str] = []
     engine = EngineLoop(

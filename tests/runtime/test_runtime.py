@@ -10,13 +10,12 @@ from pathlib import Path
 
 import pytest
 
-from rac.diagnosis import load_theory
 from rac.errors import RacError
-from rac.loader import load_model, load_observers
+from rac.load.files import load_model, load_observers
+from rac.load.theory import load_theory, robot_name
 from rac.logic import Atom
 from rac.observe import NodeSample, Verdict
 from rac.pipeline import compile_model
-from rac.repair import robot_name
 from rac.runtime.demo import DemoNode, parse_demo_fault, start_body
 from rac.runtime.diagnoser import Diagnoser
 from rac.runtime.host import ObserverHost

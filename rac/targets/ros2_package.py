@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import sys
 
-from rac.ros1.package import PACKAGE
+from rac.targets.ros1_package import PACKAGE
 
 EXECUTABLES = {  # executable -> racc command (demo_node: the entry's own)
     "observe": "observe",
@@ -63,7 +63,7 @@ def package_files(python: str | None = None) -> dict[str, str]:
             f"# racc's ROS 2 node '{exe}', written by 'racc ros-package --ros 2'.\n"
             "import sys\n\n"
             "try:\n"
-            "    from rac.ros2.entry import main\n"
+            "    from rac.entry_ros2 import main\n"
             "except KeyboardInterrupt:  # stopped while starting: as clean an end as later\n"
             "    sys.exit(0)\n\n"
             f"sys.exit(main({command!r}, sys.argv[1:]))\n"

@@ -1,10 +1,15 @@
-"""Where the executables of the ``racc`` ROS 2 package start (see :mod:`rac.ros2.package`)."""
+"""Where the executables of the ``racc`` ROS 2 package start (written by
+:mod:`rac.targets.ros2_package`): beside :mod:`rac.cli`, the other way in."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
+from rac.cli import main as racc
+from rac.commands.demo import demo_node_from_argv
+from rac.errors import RacError
 from rac.ros2 import common
+from rac.ros2.demo_node import run_demo_node
 
 
 def main(command: str, argv: Sequence[str]) -> int:
@@ -16,8 +21,6 @@ def main(command: str, argv: Sequence[str]) -> int:
     try:
         if command == "demo-node":
             return demo_node(args)
-        from rac.cli import main as racc
-
         code = racc([command, "--ros", "2", *args])
     except KeyboardInterrupt:
         return 0
@@ -28,10 +31,6 @@ INTERRUPTED = 130  # racc's exit code after a KeyboardInterrupt (rac.cli)
 
 
 def demo_node(argv: Sequence[str]) -> int:
-    from rac.commands.demo import demo_node_from_argv
-    from rac.errors import RacError
-    from rac.ros2.demo_node import run_demo_node
-
     try:
         demo = demo_node_from_argv(argv, ros_version=2)
     except RacError as err:

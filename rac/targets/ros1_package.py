@@ -11,7 +11,7 @@ from __future__ import annotations
 import sys
 
 PACKAGE = "racc"
-EXECUTABLES = {  # executable -> racc command (demo_node: rac.ros1.entry's own)
+EXECUTABLES = {  # executable -> racc command (demo_node: rac.entry_ros1's own)
     "observe": "observe",
     "engine": "engine",
     "repairer": "repairer",
@@ -46,7 +46,7 @@ def package_files(python: str | None = None) -> dict[str, str]:
             f"#!{interpreter}\n"
             f"# racc's ROS 1 node '{exe}', written by 'racc ros-package'.\n"
             "import sys\n\n"
-            "from rac.ros1.entry import main\n\n"
+            "from rac.entry_ros1 import main\n\n"
             f"sys.exit(main({command!r}, sys.argv[1:]))\n"
         )
     return files
