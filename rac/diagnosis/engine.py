@@ -66,6 +66,76 @@ def _intern(ids: dict[Key, int], key: Key) -> int:
     return found
 
 
+def assumptions_behind(
+    atoms: Iterable[int],
+    why: Mapping[int, int],
+    body: Sequence[Sequence[int]],
+    limit: int | None = None,
+) -> set[int]:
+    """The assumption atoms ``atoms`` were derived from, following each atom's clause in
+    ``why`` back to atoms assumed (:data:`ASSUMED`) or true in the base (absent from ``why``).
+
+    With ``limit`` the trace stops once that many are found.  A ``why`` that is a
+    :class:`~collections.ChainMap` of two dictionaries (:meth:`Index.check`'s) is read map by
+    map: its own ``get`` runs in Python, once per atom of a trace as long as the model.
+    """
+    # only a check of derivations (by_head) makes a trace give None
+    return cast(set[int], _trace(atoms, why, body, limit, None, None))
+
+
+def assumptions_of_one_derivation(
+    atoms: Iterable[int],
+    closure: Full,
+    body: Sequence[Sequence[int]],
+    by_head: Sequence[Sequence[int]],
+) -> set[int] | None:
+    """:func:`assumptions_behind` of ``atoms`` in ``closure`` when every atom they were derived
+    from has one derivation (no other clause of it fired; no clause at all when it was
+    assumed), which makes those assumptions needed by every derivation; None otherwise."""
+    return _trace(atoms, closure.why, body, None, by_head, closure.missing)
+
+
+def _trace(
+    atoms: Iterable[int],
+    why: Mapping[int, int],
+    body: Sequence[Sequence[int]],
+    limit: int | None,
+    by_head: Sequence[Sequence[int]] | None,
+    missing: Sequence[int] | None,
+) -> set[int] | None:
+    """The one trace behind :func:`assumptions_behind` and
+    :func:`assumptions_of_one_derivation`: depth first, a clause's body pushed last atom
+    first, so that a clause's own assumptions are met before the atoms it was derived
+    from (a limit is reached without walking a chain to its start)."""
+    nothing: dict[int, int] = {}
+    maps = why.maps if isinstance(why, ChainMap) and len(why.maps) == 2 else [why, nothing]
+    find_changed, find_rest = maps[0].get, maps[1].get
+    found: set[int] = set()
+    seen: set[int] = set()
+    stack = list(atoms)
+    stop = -1 if limit is None else limit  # found grows one by one: never -1
+    while stack and len(found) != stop:
+        a = stack.pop()
+        if a in seen:
+            continue
+        seen.add(a)
+        k = find_changed(a)
+        if k is None:
+            k = find_rest(a)
+            if k is None:  # true in the base: follows from Θ alone
+                continue
+        if by_head is not None and missing is not None:
+            deriving = by_head[a]  # no clause for an assumption, one for a chain's link
+            several = deriving and (k == ASSUMED or len(deriving) > 1)
+            if several and any(missing[j] == 0 for j in deriving if j != k):
+                return None  # a second derivation
+        if k == ASSUMED:
+            found.add(a)
+        else:
+            stack.extend(reversed(body[k]))
+    return found
+
+
 def _number(theory: Theory, ids: dict[Key, int]) -> tuple[list[int], list[list[int]]]:
     """Number the atoms of the clauses (heads, then bodies) and props in ``ids``: the
     order a clause table numbers them in."""
@@ -154,6 +224,8 @@ class Index:
         self.false_id = self.ids.get((FALSE, ()), -1)
         self.all_nab = cast(list[int], nab_ids)  # no None left
         ab_ids = list(map(self.complement.__getitem__, self.all_nab))  # AB(c) = ¬NAB(c)
+        self.nab_atoms = frozenset(self.all_nab)
+        self.ab_atoms = frozenset(ab_ids)
         self.nab_id = dict(zip(comps, self.all_nab, strict=True))
         self.ab_id = dict(zip(comps, ab_ids, strict=True))
         # assumption atom (NAB or AB) -> its component
@@ -459,11 +531,15 @@ class Index:
 
     def full(self, base: Base) -> Full:
         """Close ``base`` under NAB(c) for every component, recording every contradiction."""
+        return self.closure(base, self.all_nab)
+
+    def closure(self, base: Base, assumed: Iterable[int]) -> Full:
+        """Close ``base`` under the ``assumed`` atoms, recording every contradiction."""
         true = bytearray(base.true)
         missing = base.missing.copy()
         why: dict[int, int] = {}
         stack: list[int] = []
-        self._seed(true, self.all_nab, why, stack, stop=False)
+        self._seed(true, assumed, why, stack, stop=False)
         self._propagate(true, missing, stack, why, stop=False)
         complement, false_id = self.complement, self.false_id
         clashes: set[tuple[int, ...]] = set()
@@ -597,45 +673,44 @@ class Index:
 
     def support(self, result: Run) -> frozenset[int]:
         """The assumption atoms the contradiction of ``result`` was derived from."""
-        why, body = result.why, self.body
-        found: set[int] = set()
-        seen: set[int] = set()
-        stack = list(result.clash)
-        while stack:
-            a = stack.pop()
-            if a in seen:
-                continue
-            seen.add(a)
-            k = why.get(a)
-            if k is None:  # true in the base: follows from Θ alone
-                continue
-            if k == ASSUMED:
-                found.add(a)
-            else:
-                stack.extend(body[k])
-        return frozenset(found)
+        return frozenset(assumptions_behind(result.clash, result.why, self.body))
 
     def necessary(
-        self, base: Base, assumed: Sequence[int], candidates: Sequence[int]
+        self,
+        base: Base,
+        assumed: Sequence[int],
+        candidates: Sequence[int],
+        closure: Full | None = None,
     ) -> frozenset[int]:
         """The ``candidates`` without which facts ∪ Θ ∪ ``assumed`` is consistent: the
         assumptions in every derivation of every contradiction, in one pass.
 
-        ``assumed`` must contradict Θ.  Each atom of the closure gets the set of candidates
-        every one of its derivations uses, as a bit mask: an assumption its own bit, an atom
-        of the base none, a derived atom the intersection over the clauses deriving it of the
-        union over their bodies (the greatest solution, found by a work list, so cycles and
-        clauses that fire after their head was derived are handled).  A contradiction needs
-        the union of its two atoms' sets, and the answer is the intersection over all of
-        them.  Where deletion tests each candidate by a propagation of its own (quadratic on a
-        chain of n components), this costs one closure and one mask operation per clause.
+        ``assumed`` must contradict Θ; ``closure`` is :meth:`closure` of ``base`` under
+        ``assumed`` when the caller has it.  When the closure holds one contradiction and
+        every atom it was derived from has one derivation (a chain, a fan-in), the answer is
+        the assumptions that derivation traces back to.  Otherwise each atom of the closure
+        gets the set of candidates every one of its derivations uses, as a bit mask: an
+        assumption its own bit, an atom of the base none, a derived atom the intersection
+        over the clauses deriving it of the union over their bodies (the greatest solution,
+        found by a work list, so cycles and clauses that fire after their head was derived
+        are handled).  A contradiction needs the union of its two atoms' sets, and the
+        answer is the intersection over all of them.  Where deletion tests each candidate by
+        a propagation of its own (quadratic on a chain of n components), this costs one
+        closure and one mask operation per clause.
         """
-        true = bytearray(base.true)
-        missing = base.missing.copy()
-        why: dict[int, int] = {}
-        stack: list[int] = []
-        self._seed(true, assumed, why, stack, stop=False)
-        self._propagate(true, missing, stack, why, stop=False)
+        if closure is None:
+            closure = self.closure(base, assumed)
+        if len(closure.clashes) == 1:
+            traced = assumptions_of_one_derivation(
+                closure.clashes[0], closure, self.body, self.by_head
+            )
+            if traced is not None:
+                return frozenset(a for a in candidates if a in traced)
+        return self._necessary_by_masks(closure, candidates)
+
+    def _necessary_by_masks(self, closure: Full, candidates: Sequence[int]) -> frozenset[int]:
+        """:meth:`necessary` by the bit masks of its docstring."""
+        true, missing, why = closure.true, closure.missing, closure.why
         bit = {a: 1 << i for i, a in enumerate(candidates)}
         every = (1 << len(candidates)) - 1
         body, by_head = self.body, self.by_head
@@ -681,7 +756,13 @@ class Index:
                 common &= mask[a] | mask.get(c, 0)
         return frozenset(a for a in candidates if common & bit[a])
 
-    def minimal_conflict(self, base: Base, conflict: frozenset[int]) -> frozenset[int]:
+    def minimal_conflict(
+        self,
+        base: Base,
+        conflict: frozenset[int],
+        needed_under: dict[frozenset[int], frozenset[int]] | None = None,
+        closure: Full | None = None,
+    ) -> frozenset[int]:
         """Shrink a set of assumption atoms that contradicts Θ to a subset-minimal one.
 
         Deletion-based: drop one atom at a time and keep the (traced) smaller conflict when
@@ -689,11 +770,19 @@ class Index:
         an atom found necessary stays necessary in every subset: the atoms :meth:`necessary`
         finds are never tested, and when they contradict Θ by themselves they are the only
         minimal conflict inside ``conflict`` (what deletion would have found, one test each).
+        ``needed_under`` gets ``conflict`` -> those atoms, when they were computed: the
+        members of any set of candidates within ``conflict`` that every contradiction under
+        ``conflict`` needs, without another pass.  ``closure`` is :meth:`closure` of ``base``
+        under ``conflict`` when the caller has it.
         """
         kept = sorted(conflict)
         needed: frozenset[int] = frozenset()
         if len(kept) > _DELETION_ONLY:
-            needed = self.necessary(base, kept, kept)
+            needed = self.necessary(base, kept, kept, closure)
+            if needed_under is not None:
+                needed_under[conflict] = needed
+            if len(needed) == len(kept):  # all of the conflict, which contradicts Θ
+                return needed
             if needed and self.run(base, sorted(needed)).clash:
                 return needed
         i = 0

@@ -42,7 +42,12 @@ def compile_theory(theory: Theory) -> Index:
 
 
 def _ordered(sets: Sequence[frozenset[str]]) -> tuple[tuple[str, ...], ...]:
-    return tuple(sorted((tuple(sorted(s)) for s in sets), key=lambda s: (len(s), s)))
+    """Each set sorted, fewest members first, then by name: tuples of one size are compared
+    as they are, without a (size, tuple) key per set."""
+    by_size: dict[int, list[tuple[str, ...]]] = {}
+    for s in sets:
+        by_size.setdefault(len(s), []).append(tuple(sorted(s)) if len(s) > 1 else tuple(s))
+    return tuple(t for size in sorted(by_size) for t in sorted(by_size[size]))
 
 
 def is_consistent(theory: Theory, observations: Sequence[Literal], bad: Sequence[str] = ()) -> bool:
