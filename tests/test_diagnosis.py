@@ -284,6 +284,30 @@ def test_observation_file_scans_the_model_once(
     assert len(calls) <= 1  # none at all: the clause index answers (KnownAtoms)
 
 
+def test_parse_literal_does_not_scan_the_model_per_call(
+    tedusar: Theory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """parse_literal once per observation built known_atoms (a set of every atom of the
+    model) each time: quadratic in the observations; it asks the clause index instead."""
+    import rac.diagnosis.theory as theory_module
+
+    calls: list[int] = []
+    real = theory_module.known_atoms
+
+    def counting(theory: Theory) -> frozenset[Atom]:
+        calls.append(1)
+        return real(theory)
+
+    monkeypatch.setattr(theory_module, "known_atoms", counting)
+    literals = [parse_literal(f"not {a}", tedusar) for a in tedusar.props]
+    assert [lit.atom for lit in literals] == list(tedusar.props)
+    assert not any(lit.positive for lit in literals)
+    assert calls == []
+    with pytest.raises(RacError) as err:  # an unknown atom still names the nearest one
+        parse_literal("ok(poze)", tedusar)
+    assert err.value.diagnostics[0].hint == "did you mean 'ok(pose)'?"
+
+
 @pytest.mark.parametrize("text", ["", "# only a comment\n"])
 def test_empty_model_yaml_names_the_file(text: str) -> None:
     with pytest.raises(RacError) as err:
