@@ -17,13 +17,8 @@ from __future__ import annotations
 from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 
-from rac.diagnosis.engine import (
-    Base,
-    Full,
-    Index,
-    assumptions_behind,
-    assumptions_of_one_derivation,
-)
+from rac.diagnosis.engine import Base, Full, Index
+from rac.diagnosis.support import assumptions_behind, assumptions_of_one_derivation
 
 Conflict = tuple[frozenset[str], frozenset[str]]  # (components assumed NAB, assumed AB)
 
