@@ -104,11 +104,12 @@ class HittingSetDag:
         index = self.index
         if not index.monotone or len(label[0]) < _FEW_CHILDREN:
             return frozenset()
-        assumed = index.assignment(delta, strong=False)
+        assumed = index.assignment(delta, strong=False) if delta else index.all_nab
         # the label's own shrinking may have found them under the same assumptions (Δ = ∅
         # and a conflict of every component: a chain, a fan-in); those of the candidates
         # are the answer, as a candidate's bit is the same in either pass
-        needed = self.needed_under.get(frozenset(assumed))
+        # (for Δ = ∅ the set itself: its hash is kept, and it is found by identity)
+        needed = self.needed_under.get(frozenset(assumed) if delta else index.nab_atoms)
         if needed is not None:
             return frozenset(c for c in label[0] if index.nab_id[c] in needed)
         candidates = [index.nab_id[c] for c in sorted(label[0])]
@@ -129,10 +130,17 @@ class HittingSetDag:
                 cut = level
                 break
             children: set[frozenset[str]] = set()
-            for delta in sorted_sets(level):
+            # A node known consistent is a diagnosis unless an earlier level's is inside it
+            # (the nodes of a level are all of one size); it needs no label, so the order
+            # the others are labelled in, which decides the conflicts reused, is unchanged
+            # when they are taken first and unsorted (the n nodes below a chain's conflict).
+            for delta in level & consistent:
+                if not found.covers(delta):
+                    found.add(delta)
+            for delta in sorted_sets(level - consistent):
                 if found.covers(delta):
                     continue
-                label = None if delta in consistent else self._label(delta)
+                label = self._label(delta)
                 if label is None:
                     found.add(delta)
                     continue
