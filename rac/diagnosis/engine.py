@@ -5,17 +5,6 @@
 runs and closures), :mod:`~rac.diagnosis.dred` (the incremental check of a candidate) and
 :mod:`~rac.diagnosis.support` (the support trace, necessary assumptions, minimal
 conflicts).
-
-Every atom, ``not_p`` included, is its own proposition; a state is contradictory when it holds
-``p`` and ``not_p``, ``AB(c)`` and ``NAB(c)``, or ``false``.  Consistency is decided by
-counter-based unit propagation (Dowling-Gallier / LTUR): each clause keeps the number of its
-body atoms not yet true, so every clause is touched at most once per body atom, which is linear
-in the size of the clause set.
-
-Propagation always starts from a :class:`Base`, the closure of the facts and the observations
-Θ without any assumption.  A run adds assumption atoms on top of it and keeps its own changes
-in dictionaries, so a check that only touches a few clauses (a candidate conflict) costs only
-those clauses, not the whole model.
 """
 
 from __future__ import annotations
