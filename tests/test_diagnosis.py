@@ -263,13 +263,9 @@ def test_unknown_component_in_fault(tedusar: Theory) -> None:
     assert err.value.diagnostics[0].hint == "did you mean 'jaguar_node'?"
 
 
-def test_observation_file_scans_the_model_once(
-    tedusar: Theory, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """known_atoms is a pass over the whole model: once per file, not once per line.
-
-    Once per line made a 3,000-line file on a 1,000-component model take 30 s.
-    """
+@pytest.fixture
+def known_atoms_calls(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """One entry per call of known_atoms (a pass over the whole model) from now on."""
     import rac.diagnosis.theory as theory_module
 
     calls: list[int] = []
@@ -280,9 +276,35 @@ def test_observation_file_scans_the_model_once(
         return real(theory)
 
     monkeypatch.setattr(theory_module, "known_atoms", counting)
+    return calls
+
+
+def test_observation_file_scans_the_model_once(
+    tedusar: Theory, known_atoms_calls: list[int]
+) -> None:
+    """known_atoms is a pass over the whole model: once per file, not once per line.
+
+    Once per line made a 3,000-line file on a 1,000-component model take 30 s.
+    """
+    calls = known_atoms_calls
     text = "\n".join(str(a) for a in tedusar.props)
     assert len(parse_observations(text, "obs.txt", tedusar)) == len(tedusar.props)
     assert len(calls) <= 1  # none at all: the clause index answers (KnownAtoms)
+
+
+def test_parse_literal_does_not_scan_the_model_per_call(
+    tedusar: Theory, known_atoms_calls: list[int]
+) -> None:
+    """parse_literal once per observation built known_atoms (a set of every atom of the
+    model) each time: quadratic in the observations; it asks the clause index instead."""
+    calls = known_atoms_calls
+    literals = [parse_literal(f"not {a}", tedusar) for a in tedusar.props]
+    assert [lit.atom for lit in literals] == list(tedusar.props)
+    assert not any(lit.positive for lit in literals)
+    assert calls == []
+    with pytest.raises(RacError) as err:  # an unknown atom still names the nearest one
+        parse_literal("ok(poze)", tedusar)
+    assert err.value.diagnostics[0].hint == "did you mean 'ok(pose)'?"
 
 
 @pytest.mark.parametrize("text", ["", "# only a comment\n"])

@@ -22,7 +22,7 @@ from test_diagnosis_bruteforce import (
     theories,
 )
 
-from rac.diagnosis import Literal, Theory, compile_theory, diagnose, engine, search
+from rac.diagnosis import Literal, Theory, compile_theory, diagnose, search, support
 from rac.diagnosis.engine import Index
 from rac.diagnosis.theory import components_of
 from rac.logic import Atom, Clause
@@ -95,12 +95,13 @@ def _both_ways(
     theory: Theory, obs: tuple[Literal, ...], max_card: int | None, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     with monkeypatch.context() as patch:  # the one-pass paths on for every conflict and label
-        patch.setattr(engine, "_DELETION_ONLY", 0)
+        patch.setattr(support, "_DELETION_ONLY", 0)
         patch.setattr(search, "_FEW_CHILDREN", 0)
         fast = diagnose(Theory(theory.clauses, theory.props, theory.components), obs, max_card)
     with monkeypatch.context() as patch:  # and off: deletion and a check per candidate
-        patch.setattr(engine, "_DELETION_ONLY", 10**9)
+        patch.setattr(support, "_DELETION_ONLY", 10**9)
         patch.setattr(search, "_FEW_CHILDREN", 10**9)
+        patch.setattr(search.HittingSetDag, "_root_label", lambda self: None)
         slow = diagnose(Theory(theory.clauses, theory.props, theory.components), obs, max_card)
     assert fast == slow
 
@@ -121,7 +122,7 @@ def test_a_chain_against_brute_force(n: int, monkeypatch: pytest.MonkeyPatch) ->
     """Every one of the n components is a single-fault diagnosis; the chain is the one
     minimal conflict (brute force over all 2**n subsets)."""
     theory, obs = _chain(n, random.Random(n), extra=0)
-    monkeypatch.setattr(engine, "_DELETION_ONLY", 0)
+    monkeypatch.setattr(support, "_DELETION_ONLY", 0)
     monkeypatch.setattr(search, "_FEW_CHILDREN", 0)
     diagnoses, conflicts = reference(theory, obs)
     result = diagnose(theory, obs)
@@ -129,3 +130,28 @@ def test_a_chain_against_brute_force(n: int, monkeypatch: pytest.MonkeyPatch) ->
         range(1, n + 1), key=lambda i: f"c{i}")]  # fmt: skip
     assert list(result.conflicts) == conflicts
     assert compile_theory(theory).monotone
+
+
+def test_one_derivation_traced_or_refused() -> None:
+    """The trace behind the one-pass label of Δ = ∅ gives the assumptions of a derivation
+    only when it is the only one: a spare path (a second clause deriving t0) refuses it,
+    and the masks then find that NAB(c0) is not needed."""
+    rng = random.Random(3)
+    theory, obs = _fan_in(4, rng)
+    index = Index(theory)
+    base, _ = index.base(obs)
+    full = index.full(base)
+    (clash,) = full.clashes
+    traced = support.assumptions_of_one_derivation(clash, full, index.body, index.by_head)
+    assert traced == set(index.all_nab)
+    spare = Clause((Atom("NAB", ("p0",)), Atom("ok", ("in0",))), Atom("ok", ("t0",)))
+    clauses = (*theory.clauses, spare)
+    spared = Theory(clauses, theory.props, components_of(clauses))
+    index = Index(spared)
+    base, _ = index.base(obs)
+    full = index.full(base)
+    (clash,) = full.clashes
+    assert support.assumptions_of_one_derivation(clash, full, index.body, index.by_head) is None
+    needed = index.necessary(base, index.all_nab, index.all_nab, full)
+    assert {index.component[a] for a in needed} == {"f", "c1", "c2", "c3"}
+    assert diagnose(spared, obs).diagnoses == (("c1",), ("c2",), ("c3",), ("f",), ("c0", "p0"))

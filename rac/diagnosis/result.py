@@ -42,7 +42,17 @@ def compile_theory(theory: Theory) -> Index:
 
 
 def _ordered(sets: Sequence[frozenset[str]]) -> tuple[tuple[str, ...], ...]:
-    return tuple(sorted((tuple(sorted(s)) for s in sets), key=lambda s: (len(s), s)))
+    """Each set sorted, fewest members first, then by name: tuples of one size are compared
+    as they are, without a (size, tuple) key per set."""
+    singles = sorted(name for s in sets if len(s) == 1 for name in s)  # strings compared
+    by_size: dict[int, list[tuple[str, ...]]] = {}
+    for s in sets:
+        if len(s) != 1:
+            by_size.setdefault(len(s), []).append(tuple(sorted(s)))
+    by_size[1] = [(name,) for name in singles]  # in order already
+    return tuple(
+        t for size in sorted(by_size) for t in (by_size[1] if size == 1 else sorted(by_size[size]))
+    )
 
 
 def is_consistent(theory: Theory, observations: Sequence[Literal], bad: Sequence[str] = ()) -> bool:

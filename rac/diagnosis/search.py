@@ -14,10 +14,11 @@ path minimal, since each smaller diagnosis was found on an earlier level.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 
-from rac.diagnosis.engine import ASSUMED, Base, Full, Index
+from rac.diagnosis.engine import Base, Full, Index
+from rac.diagnosis.support import assumptions_behind, assumptions_of_one_derivation
 
 Conflict = tuple[frozenset[str], frozenset[str]]  # (components assumed NAB, assumed AB)
 
@@ -38,6 +39,8 @@ class HittingSetDag:
         self.full = full
         self.strong = strong
         self.conflicts: list[Conflict] = []
+        # a set of assumption atoms -> those in every contradiction it gives (Index.necessary)
+        self.needed_under: dict[frozenset[int], frozenset[int]] = {}
 
     def _label(self, delta: frozenset[str]) -> Conflict | None:
         """A minimal conflict inside Δ's assignment, or None when the assignment is consistent."""
@@ -45,15 +48,36 @@ class HittingSetDag:
             if nab.isdisjoint(delta) and ab <= delta:
                 return nab, ab
         index = self.index
-        result = index.check(self.base, self.full, delta, self.strong)
-        if not result.clash:
-            return None
-        atoms = index.minimal_conflict(self.base, index.support(result))
+        atoms = self._root_label() if not delta else None
+        if atoms is None:
+            result = index.check(self.base, self.full, delta, self.strong)
+            if not result.clash:
+                return None
+            support = index.support(result)
+            # under every component's NAB, the closure is the all-normal one already computed
+            closure = self.full if support == index.nab_atoms else None
+            atoms = index.minimal_conflict(self.base, support, self.needed_under, closure)
         component = index.component
-        nab = frozenset(component[a] for a in atoms if not index.is_ab(a))
-        ab = frozenset(component[a] for a in atoms if index.is_ab(a))
+        ab_atoms = atoms.intersection(index.ab_atoms)
+        nab = frozenset(component[a] for a in atoms.difference(ab_atoms))
+        ab = frozenset(component[a] for a in ab_atoms)
         self.conflicts.append((nab, ab))
         return nab, ab
+
+    def _root_label(self) -> frozenset[int] | None:
+        """The label of Δ = ∅ read off the all-normal closure, when it holds one contradiction
+        derived one way only (a chain, a fan-in): the assumptions of that derivation, each
+        needed, so a minimal conflict, and all a child's check needs to know (one trace
+        where the check, its support and its shrinking took three).  None otherwise."""
+        full, index = self.full, self.index
+        if len(full.clashes) != 1:
+            return None
+        traced = assumptions_of_one_derivation(full.clashes[0], full, index.body, index.by_head)
+        if traced is None:
+            return None
+        atoms = frozenset(traced)
+        self.needed_under[index.nab_atoms] = atoms
+        return atoms
 
     def necessary(self) -> frozenset[str]:
         """The components c for which NAB(c) alone contradicts Θ: in every diagnosis.
@@ -65,7 +89,7 @@ class HittingSetDag:
         index, why = self.index, self.full.why
         found: set[str] = set()
         for clash in self.full.clashes:
-            assumed = _assumptions(why, index.body, clash, limit=2)
+            assumed = assumptions_behind(clash, why, index.body, limit=2)
             if len(assumed) == 1:
                 found.add(index.component[assumed.pop()])
         return frozenset(found)
@@ -80,8 +104,15 @@ class HittingSetDag:
         index = self.index
         if not index.monotone or len(label[0]) < _FEW_CHILDREN:
             return frozenset()
+        assumed = index.assignment(delta, strong=False) if delta else index.all_nab
+        # the label's own shrinking may have found them under the same assumptions (Δ = ∅
+        # and a conflict of every component: a chain, a fan-in); those of the candidates
+        # are the answer, as a candidate's bit is the same in either pass
+        # (for Δ = ∅ the set itself: its hash is kept, and it is found by identity)
+        needed = self.needed_under.get(frozenset(assumed) if delta else index.nab_atoms)
+        if needed is not None:
+            return frozenset(c for c in label[0] if index.nab_id[c] in needed)
         candidates = [index.nab_id[c] for c in sorted(label[0])]
-        assumed = index.assignment(delta, strong=False)
         found = index.necessary(self.base, assumed, candidates)
         return frozenset(index.component[a] for a in found)
 
@@ -99,17 +130,26 @@ class HittingSetDag:
                 cut = level
                 break
             children: set[frozenset[str]] = set()
-            for delta in sorted(level, key=sorted):
+            # A node known consistent is a diagnosis unless an earlier level's is inside it
+            # (the nodes of a level are all of one size); it needs no label, so the order
+            # the others are labelled in, which decides the conflicts reused, is unchanged
+            # when they are taken first and unsorted (the n nodes below a chain's conflict).
+            for delta in level & consistent:
+                if not found.covers(delta):
+                    found.add(delta)
+            for delta in sorted_sets(level - consistent):
                 if found.covers(delta):
                     continue
-                label = None if delta in consistent else self._label(delta)
+                label = self._label(delta)
                 if label is None:
                     found.add(delta)
                     continue
-                for comp in self._consistent_children(delta, label):
-                    consistent.add(delta | {comp})
+                known = self._consistent_children(delta, label)
                 for comp in label[0]:
-                    children.add(delta | {comp})
+                    child = delta | {comp}
+                    children.add(child)
+                    if comp in known:
+                        consistent.add(child)
             card += 1
             level = children
         bounded = any(not found.covers(child) for child in cut)
@@ -140,34 +180,23 @@ class _Diagnoses:
     def covers(self, delta: frozenset[str]) -> bool:
         if not self.singles.isdisjoint(delta):
             return True
-        return any(d <= delta for d in self.larger)
+        return bool(self.larger) and any(d <= delta for d in self.larger)
 
 
-def _assumptions(
-    why: Mapping[int, int], body: Sequence[Sequence[int]], clash: tuple[int, ...], limit: int
-) -> set[int]:
-    """The assumption atoms ``clash`` was derived from, traced until ``limit`` are found."""
-    found: set[int] = set()
-    seen: set[int] = set()
-    stack = list(clash)
-    while stack and len(found) < limit:
-        a = stack.pop()
-        if a in seen:
-            continue
-        seen.add(a)
-        k = why.get(a)
-        if k is None:  # true in the base: follows from Θ alone
-            continue
-        if k == ASSUMED:
-            found.add(a)
-        else:
-            stack.extend(body[k])
-    return found
+def sorted_sets(sets: Collection[frozenset[str]]) -> list[frozenset[str]]:
+    """``sorted(sets, key=sorted)``; sets of one member by that member (a string compared,
+    not a list built and compared: the n single-fault diagnoses of a chain)."""
+    if all(len(s) == 1 for s in sets):
+        return sorted(sets, key=min)
+    return sorted(sets, key=sorted)
 
 
 def minimal_sets(sets: Sequence[frozenset[str]]) -> list[frozenset[str]]:
     """The subset-minimal members, without duplicates."""
-    unique = sorted(set(sets), key=lambda s: (len(s), sorted(s)))
+    by_size: dict[int, list[frozenset[str]]] = {}
+    for s in set(sets):
+        by_size.setdefault(len(s), []).append(s)
+    unique = [s for size in sorted(by_size) for s in sorted_sets(by_size[size])]
     if unique and not unique[0]:
         return unique[:1]  # the empty set is inside every other
     kept: list[frozenset[str]] = []
@@ -190,15 +219,12 @@ def transversals(edges: Sequence[frozenset[str]]) -> list[frozenset[str]]:
     Used for duality: the minimal conflicts are the minimal hitting sets of the minimal
     diagnoses, so once every diagnosis is known the conflicts follow without more checks.
     """
-    edges = minimal_sets(edges)
     # A one-element edge is in every hitting set: taken out first, the rest is what Berge's
     # rounds grow (n single-fault diagnoses were n rounds over one growing set: quadratic).
-    # (minimal_sets left no other edge holding one of them, so they join each set at the end).
+    # An edge holding one of them is hit already; the others join each set at the end.
     forced = frozenset(e for edge in edges if len(edge) == 1 for e in edge)
     current: list[frozenset[str]] = [frozenset()]
-    for edge in edges:
-        if len(edge) == 1:
-            continue
+    for edge in minimal_sets([e for e in edges if len(e) != 1 and e.isdisjoint(forced)]):
         grown: list[frozenset[str]] = []
         for t in current:
             if t & edge:
