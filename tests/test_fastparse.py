@@ -89,7 +89,7 @@ def test_example_models_take_the_fast_path(path: Path) -> None:
 
 @needs_atomic
 def test_odd_layouts() -> None:
-    assert _same_or_bail(ODD) is False  # the list and 'from' continued on the next line
+    assert _same_or_bail(ODD)  # lists and 'from' continued on the next line too
     flat = ODD.replace(",\n    /u", ", /u").replace("\n    from", " from")
     flat = flat.replace("\n  window 2 s", " window 2 s")
     assert _same_or_bail(flat)
@@ -246,3 +246,16 @@ def test_placement_mutants() -> None:
                 mutant = mutant[:pos] + mutant[pos + rng.randint(1, 4) :]
         read += _same_or_bail(mutant)
     assert read > 20
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "relate /a.b ~/d.e\n",  # '~' glued to the field reference after it
+        "relate /a.b~/d.e\ninterval /a.b ~I(/d.e) within 1\n",
+        "node a {\n  subscribes /t,\n    /u\n  publishes /q\n    from /t\n}\n",  # lists go on
+        "topic /t @ 10 Hz\n  +- 1 Hz\n  window 2 s\n",
+    ],
+)
+def test_layouts_only_a_contextual_lexer_reads_take_the_fast_path(text: str) -> None:
+    assert _same_or_bail("robot r\n" + text)
