@@ -251,6 +251,10 @@ class _Parser:
             window_s=rate.window,
             mismatch_threshold=rate.mismatch,
             span=self.span_from(start),
+            rate_span=rate.span,
+            tolerance_span=rate.tolerance_span,
+            window_span=rate.window_span,
+            mismatch_span=rate.mismatch_span,
         )
 
     def field_block(self) -> tuple[Name, ...]:
@@ -269,23 +273,29 @@ class _Parser:
 
     def rate(self) -> _Rate:
         """``"@" NUMBER "Hz" rate_option*``; the last of a repeated option counts."""
+        start = self.here()
         self.punctuation("@")
-        rate = _Rate(self.number())
+        hz = self.number()
         self.keyword("Hz")
+        rate = _Rate(hz, self.span_from(start))
         lex = self.lex
         while True:
+            start = self.here()
             if lex.kind == "PLUS_MINUS":
                 lex.advance()
                 rate.tolerance = self.number()
                 self.keyword("Hz")
+                rate.tolerance_span = self.span_from(start)
             elif lex.kind == "NAME" and lex.value == "window":
                 lex.advance()
                 length = self.number()
                 unit = self.word(TIME_UNITS)
                 rate.window = length / (1000.0 if unit == "ms" else 1.0)
+                rate.window_span = self.span_from(start)
             elif lex.kind == "NAME" and lex.value == "mismatch":
                 lex.advance()
                 rate.mismatch = self.integer()
+                rate.mismatch_span = self.span_from(start)
             else:
                 return rate
 
@@ -437,18 +447,31 @@ class _Parser:
 
 
 class _Rate:
-    """A topic's rate and its options while they are read."""
+    """A topic's rate and its options, with where each is written, while they are read."""
 
-    __slots__ = ("hz", "mismatch", "tolerance", "window")
+    __slots__ = (
+        "hz",
+        "mismatch",
+        "mismatch_span",
+        "span",
+        "tolerance",
+        "tolerance_span",
+        "window",
+        "window_span",
+    )
 
-    def __init__(self, hz: float | None) -> None:
+    def __init__(self, hz: float | None, span: Span | None) -> None:
         self.hz = hz
+        self.span = span
         self.tolerance: float | None = None
+        self.tolerance_span: Span | None = None
         self.window: float | None = None
+        self.window_span: Span | None = None
         self.mismatch: int | None = None
+        self.mismatch_span: Span | None = None
 
 
-_NO_RATE = _Rate(None)
+_NO_RATE = _Rate(None, None)
 
 
 class _Body:
