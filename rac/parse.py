@@ -241,10 +241,10 @@ def parse_ram(text: str, path: str = "<string>") -> Model:
         raise RacError(out_of_range, text)
     with paused_gc():
         try:
-            # The hand-written reader of valid models is an order of magnitude faster;
+            # The recursive-descent parser of valid models is about five times faster;
             # Lark stays the definition of the language and of every syntax error.
             model, comments = fast_parse(text, path)
-        except (Bail, OverflowError, ValueError):  # a number glued to a keyword: Lark says
+        except (Bail, OverflowError, ValueError):  # a number int() or round() refuses: Lark says
             model, comments = _parse_with_lark(text, path)
         model = _attach_comments(model, comments)
         return replace(model, source=text)
