@@ -50,6 +50,12 @@ class Topic:
     mismatch_threshold: int | None = None
     comments: tuple[str, ...] = dataclasses.field(default=(), compare=False)
     span: Span | None = dataclasses.field(default=None, compare=False)
+    # Where the rate (``@ 10 Hz``) and each of its options (``+- 1 Hz``, ``window 2 s``,
+    # ``mismatch 3``) are written, for messages about one of them; None from JSON.
+    rate_span: Span | None = dataclasses.field(default=None, compare=False)
+    tolerance_span: Span | None = dataclasses.field(default=None, compare=False)
+    window_span: Span | None = dataclasses.field(default=None, compare=False)
+    mismatch_span: Span | None = dataclasses.field(default=None, compare=False)
 
     @property
     def regular(self) -> bool:

@@ -8,7 +8,6 @@ so error messages never depend on it.
 from __future__ import annotations
 
 import random
-import sys
 from pathlib import Path
 
 import pytest
@@ -24,9 +23,6 @@ ROOT = Path(__file__).resolve().parent.parent
 MODELS = sorted((ROOT / "models").glob("*.ram"))
 # RAC004 files cannot be read (not UTF-8): no parser ever sees them.
 ERRORS = sorted(p for p in (ROOT / "tests" / "errors").glob("*.ram") if p.name[:6] != "RAC004")
-
-# The fast path needs atomic groups (Python 3.11+); on 3.10 Lark reads everything.
-needs_atomic = pytest.mark.skipif(sys.version_info < (3, 11), reason="fast path is 3.11+")
 
 # Odd but valid layouts: semicolons, glued tokens, options in any order, comments anywhere.
 ODD = """# head
@@ -81,15 +77,13 @@ def _same_or_bail(text: str) -> bool:
     return fast is not None
 
 
-@needs_atomic
 @pytest.mark.parametrize("path", MODELS, ids=lambda p: p.name)
 def test_example_models_take_the_fast_path(path: Path) -> None:
     assert _same_or_bail(path.read_text(encoding="utf-8"))
 
 
-@needs_atomic
 def test_odd_layouts() -> None:
-    assert _same_or_bail(ODD) is False  # the list and 'from' continued on the next line
+    assert _same_or_bail(ODD)  # lists and 'from' continued on the next line too
     flat = ODD.replace(",\n    /u", ", /u").replace("\n    from", " from")
     flat = flat.replace("\n  window 2 s", " window 2 s")
     assert _same_or_bail(flat)
@@ -104,7 +98,6 @@ def test_bad_models(path: Path) -> None:
         _same_or_bail(text)
 
 
-@needs_atomic
 def test_mutants() -> None:
     rng = random.Random(2)
     texts = [ODD, *(p.read_text(encoding="utf-8") for p in MODELS)]
@@ -133,7 +126,6 @@ def test_commented_random_models(model: object) -> None:
     _same_or_bail(format_model(model))  # type: ignore[arg-type]
 
 
-@needs_atomic
 def test_declarations_continued_on_the_next_line() -> None:
     # Read a line at a time at first, then again token by token once the next line goes on.
     text = "robot r\nhardware a\n  switchable\ntopic /t\n;\nnode n {\n  limits cpu 5 %\n  ;\n}\n;\n"
@@ -173,13 +165,11 @@ def test_integrated_sides(text: str) -> None:
         assert any(r.integrated for p in (*model.related, *model.intervals) for r in (p.a, p.b))
 
 
-@needs_atomic
 def test_integrated_sides_usually_take_the_fast_path() -> None:
     read = [_same_or_bail("robot r\n" + text) for text in INTEGRALS[:10]]
     assert all(read), read
 
 
-@needs_atomic
 def test_integral_mutants() -> None:
     # Mutants of relations and intervals with I(...) sides, where the edits land near them.
     text = "robot r\ntopic /a { b }\n" + "".join(INTEGRALS[:10])
@@ -224,13 +214,11 @@ def test_placements(text: str) -> None:
     _same_or_bail("robot r\ntopic /t\nhardware h\nhardware g\n" + text)
 
 
-@needs_atomic
 def test_placements_take_the_fast_path() -> None:
     read = [_same_or_bail("robot r\n" + text) for text in PLACEMENTS[:3]]
     assert all(read), read
 
 
-@needs_atomic
 def test_placement_mutants() -> None:
     text = "robot r\ntopic /t\n" + "".join(PLACEMENTS[:3])
     rng = random.Random(28)
@@ -246,3 +234,16 @@ def test_placement_mutants() -> None:
                 mutant = mutant[:pos] + mutant[pos + rng.randint(1, 4) :]
         read += _same_or_bail(mutant)
     assert read > 20
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "relate /a.b ~/d.e\n",  # '~' glued to the field reference after it
+        "relate /a.b~/d.e\ninterval /a.b ~I(/d.e) within 1\n",
+        "node a {\n  subscribes /t,\n    /u\n  publishes /q\n    from /t\n}\n",  # lists go on
+        "topic /t @ 10 Hz\n  +- 1 Hz\n  window 2 s\n",
+    ],
+)
+def test_layouts_only_a_contextual_lexer_reads_take_the_fast_path(text: str) -> None:
+    assert _same_or_bail("robot r\n" + text)

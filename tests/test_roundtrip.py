@@ -5,7 +5,6 @@ from __future__ import annotations
 import copy
 import json
 import re
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -251,7 +250,6 @@ def test_fast_parser_builds_what_lark_builds(text: str) -> None:
         assert fast == lark
 
 
-@pytest.mark.skipif(sys.version_info < (3, 11), reason="fast path is 3.11+")
 @pytest.mark.parametrize("path", MODELS, ids=lambda p: p.stem)
 def test_fast_parser_reads_the_examples(path: Path) -> None:
     lark, fast = _lark_and_fast(path.read_text(encoding="utf-8"))

@@ -140,6 +140,27 @@ def test_a_tolerance_error_gives_the_values() -> None:
     assert d.code == "RAC029" and "20 Hz" in d.message and "10 Hz" in d.message  # type: ignore[attr-defined]
 
 
+# Each rate option has a span of its own: the caret is under the option, not the whole line.
+@pytest.mark.parametrize(
+    ("declaration", "code", "said", "columns"),
+    [
+        ("topic /a @ 10 Hz +- 20 Hz", "RAC029", "tolerance 20 Hz", (18, 26)),
+        ("topic /a @ 10 Hz mismatch 2 ± 20 Hz window 2 s", "RAC029", "tolerance 20", (29, 36)),
+        ("topic /a @ 10 Hz window 500 s", "RAC133", "window 500 s", (18, 30)),
+        ("topic /a @ 10 Hz\n  window 0 ms", "RAC029", "not 0 s", (3, 14)),
+        ("topic /a @ 0 Hz", "RAC029", "not 0 Hz", (10, 16)),
+        ("topic /a @ 1e-320 Hz +- 0 Hz", "RAC007", "too close to 0", (10, 21)),
+    ],
+)
+def test_a_rate_option_error_points_at_the_option(
+    declaration: str, code: str, said: str, columns: tuple[int, int]
+) -> None:
+    text = f"robot r\n{declaration}\nnode n {{ publishes /a }}\n"
+    (d,) = [d for d in _diagnostics(text) if d.code == code]  # type: ignore[attr-defined]
+    assert said in d.message
+    assert (d.span.column, d.span.end_column) == columns  # type: ignore[attr-defined]
+
+
 @pytest.mark.parametrize(("window", "warned"), [("500 s", True), ("50 ms", True), ("2 s", False)])
 def test_a_window_far_outside_its_rate_is_warned(window: str, warned: bool) -> None:
     text = f"robot r\ntopic /a @ 10 Hz window {window}\nnode n {{ publishes /a }}\n"

@@ -328,7 +328,7 @@ def check_ranges(model: Model) -> Iterator[Diagnostic]:
                 f"topic '{t.name.value}': rate {t.rate_hz:g} Hz is too close to 0 "
                 "(or to its tolerance): its period is not a finite number"
             )
-            yield _error("RAC007", message, t.span)
+            yield _error("RAC007", message, t.rate_span or t.span)
 
 
 def _numbers(model: Model) -> Iterator[float | int | None]:
@@ -358,10 +358,10 @@ def _number_problems(model: Model) -> Iterator[Diagnostic]:
     for t in model.topics:
         name = t.name.value
         found += [
-            ("topic '{}': rate", name, t.rate_hz, t.span),
-            ("topic '{}': tolerance", name, t.rate_tolerance_hz, t.span),
-            ("topic '{}': window", name, t.window_s, t.span),
-            ("topic '{}': mismatch", name, t.mismatch_threshold, t.span),
+            ("topic '{}': rate", name, t.rate_hz, t.rate_span or t.span),
+            ("topic '{}': tolerance", name, t.rate_tolerance_hz, t.tolerance_span or t.span),
+            ("topic '{}': window", name, t.window_s, t.window_span or t.span),
+            ("topic '{}': mismatch", name, t.mismatch_threshold, t.mismatch_span or t.span),
         ]
     for n in model.nodes:
         name, limits = n.name.value, n.limits
@@ -411,14 +411,17 @@ def check_values(model: Model) -> Iterator[Diagnostic]:
     for t in model.topics:
         name = t.name.value
         if t.rate_hz is not None and t.rate_hz <= 0:
-            yield _error("RAC029", f"topic '{name}': rate must be above 0 Hz", t.span)
+            message = f"topic '{name}': rate must be above 0 Hz, not {t.rate_hz:g} Hz"
+            yield _error("RAC029", message, t.rate_span or t.span)
         if t.rate_hz is None and (t.rate_tolerance_hz, t.window_s, t.mismatch_threshold) != (
             None,
             None,
             None,
         ):
+            options = (t.tolerance_span, t.window_span, t.mismatch_span)
+            at = min((s for s in options if s is not None), key=_start, default=t.span)
             yield _error(
-                "RAC029", f"topic '{name}': tolerance, window and mismatch need a rate", t.span
+                "RAC029", f"topic '{name}': tolerance, window and mismatch need a rate", at
             )
         tol = t.rate_tolerance_hz
         if tol is not None and t.rate_hz is not None and not 0 <= tol < t.rate_hz:
@@ -427,11 +430,12 @@ def check_values(model: Model) -> Iterator[Diagnostic]:
                 f"below the rate {t.rate_hz:g} Hz"
             )
             hint = f"a tolerance is what the rate may deviate by: e.g. '+- {t.rate_hz / 10:g} Hz'"
-            yield _error("RAC029", msg, t.span, hint)
+            yield _error("RAC029", msg, t.tolerance_span or t.span, hint)
         if t.window_s is not None and t.window_s <= 0:
-            yield _error("RAC029", f"topic '{name}': window must be above 0 s", t.span)
+            message = f"topic '{name}': window must be above 0 s, not {t.window_s:g} s"
+            yield _error("RAC029", message, t.window_span or t.span)
         elif t.window_s is not None and t.rate_hz is not None and t.rate_hz > 0:
-            yield from _window_range(name, t.window_s, t.rate_hz, t.span)
+            yield from _window_range(name, t.window_s, t.rate_hz, t.window_span or t.span)
     for n in model.nodes:
         lim = n.limits
         if (lim.cpu is not None and lim.cpu <= 0) or (lim.mem is not None and lim.mem <= 0):
@@ -439,6 +443,10 @@ def check_values(model: Model) -> Iterator[Diagnostic]:
     for iv in model.intervals:
         if iv.max_diff < 0:
             yield _error("RAC029", "an interval's 'within' bound must not be negative", iv.span)
+
+
+def _start(span: Span) -> tuple[int, int]:
+    return (span.line, span.column)
 
 
 def check_mangling(model: Model) -> Iterator[Diagnostic]:
