@@ -79,12 +79,17 @@ def _band(
     topic: Topic, data: TopicData, stats: RateStats, chosen: Sequence[holdout.Block]
 ) -> tuple[float, str]:
     """The learned rate tolerance: its slow edge lies the largest of σ, the held-out
-    deviation with its margin, and the floor beyond the mean interval; and its comment."""
-    window = topic.window_s if topic.window_s is not None else 10 * stats.mean
+    deviation with its margin, the floor and two lost messages beyond the mean interval;
+    and its comment."""
+    window = holdout.observer_window(stats.mean, topic.window_s)
     held = holdout.rate_holdout(data, chosen, window) if chosen else None
     floor = holdout.RATE_FLOOR * stats.mean
-    deviation = max(stats.stddev, floor)
-    text = f"band: the largest of σ and {holdout.RATE_FLOOR:.0%} of the mean ({_ms(floor)})"
+    lost = holdout.lost_messages(stats.mean, window)
+    deviation = max(stats.stddev, floor, lost)
+    text = (
+        f"band: the largest of σ, {holdout.RATE_FLOOR:.0%} of the mean ({_ms(floor)}), "
+        f"{holdout.LOST_MESSAGES} messages lost from the {window:.3g} s window ({_ms(lost)})"
+    )
     if held is not None:
         deviation = max(deviation, holdout.RATE_MARGIN * held.deviation)
         text += (
