@@ -194,13 +194,16 @@ def live_episodes(
     racc("compile", str(model), "-o", str(build), "-q")
     log = scratch / f"{model.stem}_live.log"
     with log.open("w") as out:
-        command = [str(python), "-m", "rac", "run", str(build), f"board:=127.0.0.1:{board}",
-                   "repair_mode:=dry-run"]  # fmt: skip
+        command = [str(python), "-m", "rac", "run", str(build), "repair_mode:=dry-run"]
+        if "board" in (build / "observers.launch").read_text():  # a model with a board
+            command.append(f"board:=127.0.0.1:{board}")
         run = subprocess.Popen(
             command, env=env, stdout=out, stderr=subprocess.STDOUT, start_new_session=True
         )
         try:
             time.sleep(seconds)
+            if run.poll() is not None:
+                sys.exit(f"racc run ended early ({run.returncode}); see {log}")
         finally:
             os.killpg(run.pid, signal.SIGINT)
             try:
@@ -209,6 +212,8 @@ def live_episodes(
                 os.killpg(run.pid, signal.SIGKILL)
     found: list[str] = []
     faulty = False
+    if "diagnosis none" not in log.read_text(errors="replace"):
+        sys.exit(f"racc run logged no diagnosis; see {log}")
     for line in log.read_text(errors="replace").splitlines():
         m = re.search(r"t=[\d.]+ diagnosis (.*)$", line)
         if m is None:

@@ -145,6 +145,24 @@ def test_a_learned_rate_band_holds_when_two_messages_are_lost() -> None:
     assert failures(model, _recording(_topic("/pose", slow, ("/base",), v=np.sin(slow)))) != ()
 
 
+def test_no_rate_is_learned_on_a_topic_racc_publishes_on_too() -> None:
+    # The live run of a model learned from the demo: hokuyo_node's 1 Hz /diagnostics got a
+    # rate, and once racc's engine and repairer published their status there too,
+    # not_ok(diagnostics) diagnosed hokuyo_node for the whole run.
+    t = 100.0 + np.arange(40.0)
+    rec = _recording(
+        _topic("/diagnostics", t, ("/hokuyo_node",), v=np.sin(t)),
+        _topic("/scan", 100.0 + np.arange(0.0, 40.0, 0.05), ("/hokuyo_node",), v=np.zeros(800)),
+    )
+    result = learn(rec, LearnOptions(validate=False))
+    topics = {t.name.value: t for t in result.model.topics}
+    assert topics["/diagnostics"].rate_hz is None
+    assert any(
+        "racc's own nodes publish on /diagnostics" in c for c in topics["/diagnostics"].comments
+    )
+    assert topics["/scan"].rate_hz == pytest.approx(20.0)
+
+
 def test_the_held_out_rates_use_the_observers_window() -> None:
     assert holdout.observer_window(0.1, None) == pytest.approx(2.0)  # min_window_s
     assert holdout.observer_window(0.5, None) == pytest.approx(5.0)  # 10 intervals
