@@ -15,7 +15,8 @@ rules) and with ``--blocks 0`` (only the chapter-9 rule, checked on the training
   lists), scored by ``racc evaluate`` (correct reports and false positives).
 - **live** (ROS 1; ``--no-live`` skips it): ``racc demo`` of models/tedusar.ram on a free
   roscore port, recorded twice with ``racc record``; learn on one recording, replay the
-  other.
+  other; then the model learned on the first runs live (``racc run``, repairs dry-run) on
+  the same robot for ``--live-run`` seconds, and its diagnosis episodes are counted.
 
     .venv/bin/python bench/learning_holdout.py                 # everything, ~5 min
     .venv/bin/python bench/learning_holdout.py --no-live --duration 120
@@ -184,7 +185,47 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
-def live(scratch: Path, duration: float) -> None:
+def live_episodes(
+    python: Path, model: Path, scratch: Path, env: dict[str, str], board: int, seconds: float
+) -> tuple[int, list[str]]:
+    """Run ``model`` live on the running demo robot for ``seconds`` (repairs dry-run): its
+    diagnosis episodes (the engine's log lines that turn a fault-free diagnosis into one)."""
+    build = scratch / f"{model.stem}_build"
+    racc("compile", str(model), "-o", str(build), "-q")
+    log = scratch / f"{model.stem}_live.log"
+    with log.open("w") as out:
+        command = [str(python), "-m", "rac", "run", str(build), "repair_mode:=dry-run"]
+        if "board" in (build / "observers.launch").read_text():  # a model with a board
+            command.append(f"board:=127.0.0.1:{board}")
+        run = subprocess.Popen(
+            command, env=env, stdout=out, stderr=subprocess.STDOUT, start_new_session=True
+        )
+        try:
+            time.sleep(seconds)
+            if run.poll() is not None:
+                sys.exit(f"racc run ended early ({run.returncode}); see {log}")
+        finally:
+            os.killpg(run.pid, signal.SIGINT)
+            try:
+                run.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                os.killpg(run.pid, signal.SIGKILL)
+    found: list[str] = []
+    faulty = False
+    if "diagnosis none" not in log.read_text(errors="replace"):
+        sys.exit(f"racc run logged no diagnosis; see {log}")
+    for line in log.read_text(errors="replace").splitlines():
+        m = re.search(r"t=[\d.]+ diagnosis (.*)$", line)
+        if m is None:
+            continue
+        now = not m.group(1).startswith("none")
+        if now and not faulty:
+            found.append(line.strip())
+        faulty = now
+    return len(found), found
+
+
+def live(scratch: Path, duration: float, run_s: float) -> None:
     """racc demo on ROS 1, recorded twice with racc record (needs .venv-ros1)."""
     python = ROOT / ".venv-ros1" / "bin" / "python"
     if not python.exists():
@@ -217,6 +258,14 @@ def live(scratch: Path, duration: float) -> None:
             subprocess.run([str(python), "-m", "rac", "record", "-o", str(bag), "--duration",
                             f"{duration:g}", "-q"], env=env, check=True)  # fmt: skip
             recs.append(bag)
+        if run_s > 0:
+            stem = recs[0].with_suffix("")
+            model = scratch / "live1_run.ram"
+            racc("learn", str(recs[0]), "--graph", f"{stem}.graph.yaml", "--properties",
+                 f"{stem}.properties.csv", "-o", str(model), "-q")  # fmt: skip
+            count, lines = live_episodes(python, model, scratch, env, board, run_s)
+            print(f"\nlive run of the model learned on live1.bag: {count} episodes in "
+                  f"{run_s:g} s" + "".join(f"\n  {x}" for x in lines))  # fmt: skip
     finally:
         for p in reversed(procs):
             try:
@@ -247,6 +296,9 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=300.0, help="seconds per synth run")
     parser.add_argument("--live-duration", type=float, default=40.0, help="seconds per live run")
     parser.add_argument("--no-live", action="store_true", help="skip the live ROS 1 part")
+    parser.add_argument(
+        "--live-run", type=float, default=90.0, help="seconds of the live run (default 90; 0: none)"
+    )
     parser.add_argument("--only", choices=("jackal", "synth", "faulty", "live"), nargs="+")
     parser.add_argument("--keep", metavar="DIR", help="keep the runs and models here")
     args = parser.parse_args()
@@ -262,7 +314,7 @@ def main() -> None:
     if "faulty" in parts:
         faulty(scratch, args.duration)
     if "live" in parts:
-        live(scratch, args.live_duration)
+        live(scratch, args.live_duration, args.live_run)
     print(f"\n({time.perf_counter() - started:.0f} s; runs and models in {scratch})")
 
 

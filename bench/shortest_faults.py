@@ -3,10 +3,13 @@
 For each fault kind and duration D, ``racc synth`` writes RUNS recordings of
 models/tedusar.ram (50 s, seeds 1..RUNS) with the fault at 20 s for D seconds, and ``racc
 evaluate`` replays them through the hand-written model (grace 5 s, the default).  A row
-gives how many of the runs had the fault reported, and whether any false positive came.
+gives how many of the runs had the fault reported, and whether any false positive came;
+``--latency`` adds the range of the time from the fault's start to the first diagnosis
+naming its culprit.
 
     .venv/bin/python bench/shortest_faults.py                 # ~10 min on a shared machine
     .venv/bin/python bench/shortest_faults.py --runs 5 --durations 2 3 4
+    .venv/bin/python bench/shortest_faults.py --kinds crash --durations 3 --runs 10 --latency
 """
 
 from __future__ import annotations
@@ -41,8 +44,9 @@ def racc(*args: str) -> str:
     return done.stdout
 
 
-def detected(scratch: Path, kind: str, duration: float, runs: int) -> tuple[int, int]:
-    """(runs whose fault was reported, false positives) for one kind and duration."""
+def detected(scratch: Path, kind: str, duration: float, runs: int) -> tuple[int, int, list[float]]:
+    """(runs whose fault was reported, false positives, the report latencies) for one kind
+    and duration."""
     bags = []
     for seed in range(1, runs + 1):
         bag = scratch / f"{kind}_{duration:g}_{seed}.bag"
@@ -53,7 +57,8 @@ def detected(scratch: Path, kind: str, duration: float, runs: int) -> tuple[int,
     doc = json.loads(racc("evaluate", "--models", str(MODEL), "--runs", *bags, "--json"))
     model = doc["models"][0]
     reported = sum(1 for o in model["outcomes"] if o["reported"])
-    return reported, len(model["false_positives"])
+    latencies = [o["first"] - START_S for o in model["outcomes"] if o["reported"]]
+    return reported, len(model["false_positives"]), latencies
 
 
 def main() -> None:
@@ -63,6 +68,9 @@ def main() -> None:
         "--durations", type=float, nargs="+", default=[1, 2, 3, 4, 6, 10], help="seconds"
     )
     parser.add_argument("--kinds", nargs="+", default=list(TARGETS), choices=list(TARGETS))
+    parser.add_argument(
+        "--latency", action="store_true", help="add the report latencies (default: off)"
+    )
     args = parser.parse_args()
     scratch = Path(tempfile.mkdtemp(prefix="racc-shortest-"))
     print("| kind | target | " + " | ".join(f"{d:g} s" for d in args.durations) + " |")
@@ -70,8 +78,11 @@ def main() -> None:
     for kind in args.kinds:
         cells = []
         for d in args.durations:
-            found, fps = detected(scratch, kind, d, args.runs)
-            cells.append(f"{found}/{args.runs}" + (f" ({fps} FP)" if fps else ""))
+            found, fps, late = detected(scratch, kind, d, args.runs)
+            cell = f"{found}/{args.runs}" + (f" ({fps} FP)" if fps else "")
+            if args.latency and late:
+                cell += f" ({min(late):.1f}-{max(late):.1f} s)"
+            cells.append(cell)
         print(f"| {kind} | `{TARGETS[kind]}` | " + " | ".join(cells) + " |", flush=True)
 
 

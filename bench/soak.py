@@ -254,6 +254,16 @@ def learn_model(graph: Graph, seconds: int) -> Path:
     return learned
 
 
+def keep(tmp: Path, into: Path) -> None:
+    """The learned model and what it was learned from, kept for a look afterwards."""
+    import shutil
+
+    into.mkdir(parents=True, exist_ok=True)
+    for name in ("learn.bag", "learn.graph.yaml", "learn.properties.csv", "learned.ram"):
+        if (tmp / name).exists():
+            shutil.copy2(tmp / name, into / name)
+
+
 TOPICS = (
     "/imu/data",
     "/jackal_velocity_controller/odom",
@@ -386,6 +396,12 @@ def main() -> None:
         help="the load levels of the learned model's soak (default: those of --loads)",
     )
     parser.add_argument(
+        "--keep-learned",
+        metavar="DIR",
+        type=Path,
+        help="copy the recording, its graph and CSV and the learned model here (default: none)",
+    )
+    parser.add_argument(
         "--rates",
         action="store_true",
         help="only the topics' rates at each load, seen by a plain subscriber (default: off)",
@@ -413,7 +429,10 @@ def main() -> None:
                 soaks.append(soak(graph, name, load, args.seconds, args.settle))
             faults(graph, kinds, args.repeats, args.settle, fault_figures)
             if args.learn:
-                graph.use_model(learn_model(graph, args.learn), "learned_build")
+                learned = learn_model(graph, args.learn)
+                if args.keep_learned:
+                    keep(graph.tmp, args.keep_learned)
+                graph.use_model(learned, "learned_build")
                 for load in learn_loads:
                     soaks.append(soak(graph, "learned", load, args.seconds, args.settle))
     finally:

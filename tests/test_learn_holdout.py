@@ -121,6 +121,56 @@ def test_rate_band_covers_held_out_windows() -> None:
     assert held.deviation > 0.0015  # the drift, not the 0.5 ms jitter
 
 
+def _ten_hz(seed: int, lost_at: float | None = None) -> Recording:
+    """40 s of a 10 Hz topic with 1 % jitter; ``lost_at``: two messages missing there."""
+    rng = np.random.default_rng(seed)
+    t = 100.0 + np.cumsum(0.1 + rng.normal(0, 0.001, 400))
+    if lost_at is not None:
+        i = int(np.searchsorted(t, 100.0 + lost_at))
+        t = np.delete(t, [i, i + 1])
+    return _recording(_topic("/pose", t, ("/base",), v=np.sin(t)))
+
+
+def test_a_learned_rate_band_holds_when_two_messages_are_lost() -> None:
+    # The live demo's false episode: its 10 Hz /pose has 20 intervals in the frequency
+    # observer's 2 s window, so each lost message moves the windowed mean by 5 %, and a
+    # band of 5 % (the floor, from a regular training run) read two lost messages in a
+    # stall as a rate fault.  A hand-written `@ 10 Hz` takes two.
+    model = learn(_ten_hz(1), LearnOptions(validate=False)).model
+    (pose,) = model.topics
+    assert pose.rate_hz == pytest.approx(10.0)
+    assert failures(model, _ten_hz(2, lost_at=20.0)) == ()
+    # A rate fault is still one: half the messages lost.
+    rng = np.random.default_rng(3)
+    slow = 100.0 + np.cumsum(np.where(np.arange(400) < 200, 0.1, 0.2) + rng.normal(0, 0.001, 400))
+    assert failures(model, _recording(_topic("/pose", slow, ("/base",), v=np.sin(slow)))) != ()
+
+
+def test_no_rate_is_learned_on_a_topic_racc_publishes_on_too() -> None:
+    # The live run of a model learned from the demo: hokuyo_node's 1 Hz /diagnostics got a
+    # rate, and once racc's engine and repairer published their status there too,
+    # not_ok(diagnostics) diagnosed hokuyo_node for the whole run.
+    t = 100.0 + np.arange(40.0)
+    rec = _recording(
+        _topic("/diagnostics", t, ("/hokuyo_node",), v=np.sin(t)),
+        _topic("/scan", 100.0 + np.arange(0.0, 40.0, 0.05), ("/hokuyo_node",), v=np.zeros(800)),
+    )
+    result = learn(rec, LearnOptions(validate=False))
+    topics = {t.name.value: t for t in result.model.topics}
+    assert topics["/diagnostics"].rate_hz is None
+    assert any(
+        "racc's own nodes publish on /diagnostics" in c for c in topics["/diagnostics"].comments
+    )
+    assert topics["/scan"].rate_hz == pytest.approx(20.0)
+
+
+def test_the_held_out_rates_use_the_observers_window() -> None:
+    assert holdout.observer_window(0.1, None) == pytest.approx(2.0)  # min_window_s
+    assert holdout.observer_window(0.5, None) == pytest.approx(5.0)  # 10 intervals
+    assert holdout.observer_window(0.01, 3.0) == pytest.approx(3.0)
+    assert holdout.lost_messages(0.1, 2.0) == pytest.approx(0.1 * 2 / 18)
+
+
 # -- relations -----------------------------------------------------------------------------
 
 

@@ -241,6 +241,7 @@ def add_replay_options(parser: argparse.ArgumentParser) -> None:
         metavar="PERIOD",
         type=period,
         default=1.0,
-        help="diagnose Θ this often, e.g. 1s or 500ms (default: 1s)",
+        help="diagnose Θ this often, and when it changes (0.2 s apart at least, as live), "
+        "e.g. 1s or 500ms (default: 1s)",
     )
     add_max_card_option(parser, 3, type=replay_card)

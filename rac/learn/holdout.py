@@ -24,7 +24,9 @@ blocks of its one run), and every learned value is checked on blocks it was not 
 - **Rates.**  For fold i, the mean interval is fitted on the other blocks and the windowed
   mean intervals of block i (the frequency observer's window) are compared with it.  The
   learned deviation is the largest of σ, :data:`RATE_MARGIN` times the largest held-out
-  deviation, and :data:`RATE_FLOOR` of the mean interval.
+  deviation, :data:`RATE_FLOOR` of the mean interval, and what :data:`LOST_MESSAGES`
+  messages missing from the observer's window do to its mean (:func:`lost_messages`): a
+  topic with few messages per window moves by a whole message at a time.
 """
 
 from __future__ import annotations
@@ -43,6 +45,7 @@ from rac.learn.trends import CONSTANT, DECREASING, INCREASING, Signal, TopicTren
 DRIFT_RUNS = 6  # a signal with fewer trend runs than this in a block drifts
 RATE_MARGIN = 2.0  # the band covers twice the largest held-out deviation ...
 RATE_FLOOR = 0.05  # ... and at least 5 % of the mean interval
+LOST_MESSAGES = 2  # ... and two messages missing from the observer's window
 MIN_RANGE_SHARE = 0.1  # a heading quadrant is judged when it holds this share of the checks
 MIN_RANGE_CHECKS = 200  # ... and at least this many checks
 MIN_BLOCK_S = 2.0  # blocks shorter than this hold too few trends to validate on
@@ -358,6 +361,24 @@ def _one_row(t: TopicTrends, row: int) -> TopicTrends:
 
 
 # -- rates ----------------------------------------------------------------------------------
+
+
+def observer_window(mean: float, ws: float | None) -> float:
+    """The window the frequency observer takes its mean over, for a topic with this mean
+    interval (``ws``: the model's window, else Equation 5.3's 10 intervals)."""
+    from rac.observe.gobs import DEFAULT_MIN_COUNT, DEFAULT_MIN_WINDOW_S
+
+    return max(ws if ws is not None else 10 * mean, DEFAULT_MIN_WINDOW_S, DEFAULT_MIN_COUNT * mean)
+
+
+def lost_messages(mean: float, window: float) -> float:
+    """How far the observer's windowed mean interval moves when :data:`LOST_MESSAGES` of
+    the n = window/mean intervals in its window are missing: mean·k/(n − k).  A publisher
+    that a loaded machine stalls for longer than it catches up on loses a message or two
+    (the demo robot's 10 Hz /pose: 20 intervals in the 2 s window, so one lost message is
+    5 %), however regular the training recording was."""
+    n = window / mean
+    return mean * LOST_MESSAGES / max(n - LOST_MESSAGES, 1.0)
 
 
 def windowed_intervals(times: np.ndarray, window: float) -> np.ndarray:

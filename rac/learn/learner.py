@@ -33,6 +33,10 @@ from rac.learn.validate import failures
 STEADY_RATIO = 4.0  # Δ̄/σ(Δ) of a topic whose samples may be integrated by a running sum
 # Limits' floors: an idle node's samples (0.01 % cpu, a flat memory use) would give a limit
 # that any ordinary burst of work crosses.
+# Topics the robot's nodes and racc's own runtime both publish on: the diagnosis engine and
+# the repair engine publish their status on /diagnostics, which a recording made without
+# racc does not hold, so a rate learned there reads "too fast" once racc runs.
+SHARED_WITH_RACC = frozenset({"/diagnostics"})
 CPU_FLOOR = 5.0  # % of one core
 MEM_MARGIN = 1.2  # times the largest memory sample
 
@@ -79,12 +83,17 @@ def _band(
     topic: Topic, data: TopicData, stats: RateStats, chosen: Sequence[holdout.Block]
 ) -> tuple[float, str]:
     """The learned rate tolerance: its slow edge lies the largest of σ, the held-out
-    deviation with its margin, and the floor beyond the mean interval; and its comment."""
-    window = topic.window_s if topic.window_s is not None else 10 * stats.mean
+    deviation with its margin, the floor and two lost messages beyond the mean interval;
+    and its comment."""
+    window = holdout.observer_window(stats.mean, topic.window_s)
     held = holdout.rate_holdout(data, chosen, window) if chosen else None
     floor = holdout.RATE_FLOOR * stats.mean
-    deviation = max(stats.stddev, floor)
-    text = f"band: the largest of σ and {holdout.RATE_FLOOR:.0%} of the mean ({_ms(floor)})"
+    lost = holdout.lost_messages(stats.mean, window)
+    deviation = max(stats.stddev, floor, lost)
+    text = (
+        f"band: the largest of σ, {holdout.RATE_FLOOR:.0%} of the mean ({_ms(floor)}), "
+        f"{holdout.LOST_MESSAGES} messages lost from the {window:.3g} s window ({_ms(lost)})"
+    )
     if held is not None:
         deviation = max(deviation, holdout.RATE_MARGIN * held.deviation)
         text += (
@@ -321,6 +330,14 @@ def _learn_rates(
         stats = rate_stats(data, options.alpha)
         if stats is not None:
             rates.append(stats)
+        if topic.name.value in SHARED_WITH_RACC:
+            why = (
+                f"no rate learned: racc's own nodes publish on {topic.name.value} too, so on "
+                "the robot with racc running its rate is not the recorded one"
+            )
+            notes.append(f"topic {topic.name.value}: {why}")
+            learned_topics.append(replace(topic, comments=(*topic.comments, why)))
+            continue
         band = _band(topic, data, stats, chosen) if stats is not None and stats.regular else None
         learned = _learned_topic(topic, stats, options.alpha, band)
         if learned.rate_hz is not None and topic.name.value not in published:

@@ -11,12 +11,14 @@ the observer core takes, with times in seconds from the start of the recording.
   the board's channel states from its ``/board_measurements`` when it has hardware
   observers (the board client's ``channel N`` statuses, read as the live host reads them).
 - The properties CSV (``time,node,cpu,mem``, the file ``racc synth`` writes and ``racc
-  learn`` reads) gives CPU and memory samples, and node liveness: the CSV is taken to
-  sample every node every period P (the median spacing of its sample times); every 0.1 s
-  (the live observer host's period, or P if shorter) from the node's first sample on, a
-  node with a sample in the last 1.5·P is running, otherwise not.  So a node whose samples
-  stop reads not running 1.3 s after its last one (at 2 Hz and θ 5), about as fast as the
-  live host, which sees the process vanish; a node with no sample yet gets no verdict.
+  learn`` reads) gives CPU and memory samples, and node liveness every 0.1 s (the live
+  observer host's period, or the CSV's period P if shorter) from the node's first sample on.
+  ``racc record`` and ``racc synth`` sample every running node in rounds (one row per node,
+  one time): a round after the node's last sample that has no row of it found no process,
+  which is definite, so the node reads not running from that round on.  A node whose samples
+  are not in rounds is not running once it has had no sample for 1.5·P.  At θ 5 a crash is
+  reported 0.5 s after the first round that missed it, as the live host reports a vanished
+  process (0.6 s); a node with no sample yet gets no verdict.
   Its ``time`` is the bag's clock in seconds, or seconds from the recording's start when
   the file's first time is smaller than the bag's start.
 """
@@ -374,6 +376,7 @@ def liveness(
     for t, node, _, _ in samples:
         seen.setdefault(node, []).append(t)
     arrays = {n: np.asarray(sorted(ts)) for n, ts in seen.items()}
+    rounds = sampling_rounds(arrays)
     step = min(period, LIVENESS_STEP_S)
     out: list[NodeSample] = []
     for node in sorted(nodes):
@@ -386,11 +389,43 @@ def liveness(
         hi = np.searchsorted(ts, ticks + 1e-9, side="right")
         lo = np.searchsorted(ts, ticks - LIVENESS_SLACK * period, side="right")
         alive = (hi - lo) > 0
+        if _in_rounds(ts, rounds):
+            # A round of the sampler that came after the node's last sample and found no
+            # process: the node is not running from that round on (definite, no slack).
+            last = ts[hi - 1]
+            missed = np.searchsorted(rounds, ticks + 1e-9, side="right") > np.searchsorted(
+                rounds, last + 1e-9, side="right"
+            )
+            alive &= ~missed
         out.extend(
             NodeSample(float(t), node, bool(a))
             for t, a in zip(ticks.tolist(), alive.tolist(), strict=True)
         )
     return out
+
+
+ROUND_SHARE = 0.5  # a node is sampled in rounds when this share of its times are shared
+
+
+def sampling_rounds(times: Mapping[str, np.ndarray]) -> np.ndarray:
+    """The instants at which the sampler looked at every node (``racc record`` and ``racc
+    synth`` write one row per running node with the same time), sorted: every sample time
+    of the nodes sampled in rounds, those at least :data:`ROUND_SHARE` of whose times
+    another node shares.  A CSV whose nodes are sampled each at its own times has none."""
+    counts = Counter(t for ts in times.values() for t in set(ts.tolist()))
+    together = [ts for ts in times.values() if ts.size and _shared(ts, counts) >= ROUND_SHARE]
+    if not together:
+        return np.empty(0)
+    return np.unique(np.concatenate(together))
+
+
+def _shared(ts: np.ndarray, counts: Counter[float]) -> float:
+    return sum(1 for t in ts.tolist() if counts[t] >= 2) / ts.size
+
+
+def _in_rounds(ts: np.ndarray, rounds: np.ndarray) -> bool:
+    """Whether a node's samples come in the sampler's rounds."""
+    return bool(rounds.size) and bool(np.isin(ts, rounds).mean() >= ROUND_SHARE)
 
 
 def parse_samples(text: str, path: str) -> list[tuple[float, str, float | None, float | None]]:
