@@ -12,7 +12,7 @@ from rac.passes.observers import ObserverSpec
 from rac.ros2.common import Session, reliable
 from rac.runtime.nodes import RepairJob
 from rac.runtime.repairer import Actuator
-from rac.runtime.routing import Agent, RoutedActuator, agent_topic, no_agent
+from rac.runtime.routing import Agent, RoutedActuator, agent_started, agent_topic, no_agent
 
 CONNECT_S = 3.0  # for the agents' subscriptions to be matched before the first request
 
@@ -37,7 +37,7 @@ def routed_actuator(session: Session, job: RepairJob, local: Any) -> Actuator:
             raise no_agent(machine, name)
         pub.publish(KeyValue(key=action, value=name))
 
-    return RoutedActuator(local, job.placements, job.machine, ask, local.switch)
+    return RoutedActuator(local, job.placements, job.machine, ask)
 
 
 def start_agent(
@@ -58,9 +58,5 @@ def start_agent(
         agent.request(msg.key, msg.value)
 
     session.node.create_subscription(KeyValue, agent_topic(machine), receive, reliable(20))
-    session.log(
-        0,
-        f"racc agent {machine}: restarts its nodes on {agent_topic(machine)} "
-        f"(launch file {launch or 'none'})",
-    )
+    session.log(0, agent_started(machine, launch))
     return agent
