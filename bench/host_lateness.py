@@ -19,6 +19,8 @@ import time
 
 import numpy as np
 
+from rac.runtime.host import ticks
+
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -34,19 +36,12 @@ def main() -> None:
 
     threading.Thread(target=callbacks, daemon=True).start()
     lates: list[float] = []
-    next_tick = time.monotonic()
-    end, previous = next_tick + args.seconds, None
-    while time.monotonic() < end:
-        now = time.monotonic()
+    end, previous = time.monotonic() + args.seconds, None
+    # The observer host's own pacing (rac.runtime.host.ticks), on the monotonic clock.
+    for now in ticks(period, lambda: time.monotonic() < end, clock=time.monotonic):
         if previous is not None:
             lates.append(now - previous - period)
         previous = now
-        next_tick += period
-        delay = next_tick - time.monotonic()
-        if delay > 0:
-            time.sleep(delay)
-        else:
-            next_tick = time.monotonic()
     stop.set()
     late = np.asarray(lates) * 1e3
     print(

@@ -28,6 +28,80 @@ node talker {
 }
 """
 
+# The chat robot's nodes and a monitor of the runtime's topics (JSON lines: t, topic, rows of
+# name, level, message, hardware_id, values), per ROS version.  On ROS 1 the monitor reads
+# /diagnostics too; on ROS 2 it subscribes transient-local, which /diagnostics (volatile)
+# does not match.
+TALKER = {
+    1: """import rospy
+from std_msgs.msg import String
+rospy.init_node("talker")
+pub = rospy.Publisher("/chatter", String, queue_size=10)
+rate = rospy.Rate(10)
+while not rospy.is_shutdown():
+    pub.publish(String(data="hello"))
+    rate.sleep()
+""",
+    2: """import rclpy
+from std_msgs.msg import String
+rclpy.init()
+node = rclpy.create_node("talker")
+pub = node.create_publisher(String, "/chatter", 10)
+node.create_timer(0.1, lambda: pub.publish(String(data="hello")))
+rclpy.spin(node)
+""",
+}
+
+LISTENER = {
+    1: """import rospy
+from std_msgs.msg import String
+rospy.init_node("listener")
+rospy.Subscriber("/chatter", String, lambda m: None)
+rospy.spin()
+""",
+    2: """import rclpy
+from std_msgs.msg import String
+rclpy.init()
+node = rclpy.create_node("listener")
+node.create_subscription(String, "/chatter", lambda m: None, 10)
+rclpy.spin(node)
+""",
+}
+
+# The runtime's topics as JSON lines; on ROS 1 /diagnostics too (the host's loss is there).
+MONITOR = {
+    1: """import json, time, rospy
+from diagnostic_msgs.msg import DiagnosticArray
+rospy.init_node("racc_multihost_monitor", anonymous=True)
+def show(topic):
+    def cb(a):
+        rows = [[s.name, s.level, s.message, s.hardware_id, {v.key: v.value for v in s.values}]
+                for s in a.status]
+        print(json.dumps({"t": time.time(), "topic": topic, "rows": rows}), flush=True)
+    return cb
+for topic in ("/observations", "/diagnosis", "/repair_log", "/diagnostics"):
+    rospy.Subscriber(topic, DiagnosticArray, show(topic))
+rospy.spin()
+""",
+    2: """import json, time, rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+rclpy.init()
+node = rclpy.create_node("racc_multihost_monitor")
+qos = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE,
+                 durability=DurabilityPolicy.TRANSIENT_LOCAL)
+def show(topic):
+    def cb(a):
+        rows = [[s.name, s.level[0] if isinstance(s.level, bytes) else int(s.level), s.message,
+                 s.hardware_id, {v.key: v.value for v in s.values}] for s in a.status]
+        print(json.dumps({"t": time.time(), "topic": topic, "rows": rows}), flush=True)
+    return cb
+for topic in ("/observations", "/diagnosis", "/repair_log"):
+    node.create_subscription(DiagnosticArray, topic, show(topic), qos)
+rclpy.spin(node)
+""",
+}
+
 
 def free_port() -> int:
     with socket.socket() as s:

@@ -1,10 +1,10 @@
-"""What the live soak tests (tests/ros1/test_real_graph.py, tests/ros1/test_soak.py,
-tests/ros2/test_soak.py) and ``bench/soak.py`` share, for either ROS version.
+"""What the live tests (tests/live_harness.py, tests/ros1/test_real_graph.py) and
+``bench/soak.py`` share, for either ROS version.
 
 - ``Watch``: racc's runtime topics (/observations, /diagnosis, /repair_log) as a separate
   monitor process sees them (``python tests/soak_support.py ros1|ros2``), time-stamped with
   this machine's clock.  A process of its own, so that a test module needs no rospy/rclpy
-  node of its own (rospy allows one per process, and tests/ros1/test_live.py has it).
+  node of its own (rospy allows one per process), and the same code serves both versions.
 - ``Processes``: everything a test starts, each in a process group of its own, stopped by
   pid and process group, never by name (other runs share the machine): SIGINT first, so
   that roslaunch ends its children, then SIGKILL of the group.
@@ -49,7 +49,9 @@ class Watch:
     observations: list[tuple[float, list[tuple[str, int]]]] = field(default_factory=list)
     diagnosis: list[tuple[float, list[str]]] = field(default_factory=list)
     repair_log: list[LogRow] = field(default_factory=list)
-    nodes: set[str] = field(default_factory=set)  # the graph's node names (ROS 2 only)
+    nodes: set[str] = field(default_factory=set)  # the graph's node names, once a second
+    # The repair engine's status on /diagnostics: (time, level, message, values).
+    repairer: list[tuple[float, int, str, dict[str, str]]] = field(default_factory=list)
     # Reentrant: a condition given to wait() (which holds it) may read through since().
     lock: threading.RLock = field(default_factory=threading.RLock)
     ready: threading.Event = field(default_factory=threading.Event)
@@ -70,6 +72,9 @@ class Watch:
                     self.diagnosis.append((t, list(line["rows"])))
                 elif kind == "nodes":
                     self.nodes = set(line["rows"])
+                elif kind == "repairer":
+                    for lv, msg, values in line["rows"]:
+                        self.repairer.append((t, lv, msg, dict(values)))
                 elif kind == "repair_log":
                     for name, hw, lv, msg in line["rows"]:
                         self.repair_log.append((t, name, hw, lv, msg))
@@ -261,7 +266,26 @@ def _callbacks() -> dict[str, Callable[[Any], None]]:
     def log(a: Any) -> None:
         _emit("repair_log", [(s.name, s.hardware_id, _level(s), s.message) for s in a.status])
 
-    return {"/observations": obs, "/diagnosis": diag, "/repair_log": log}
+    def status(a: Any) -> None:
+        rows = [
+            (_level(s), s.message, [(kv.key, kv.value) for kv in s.values])
+            for s in a.status
+            if s.name.endswith(": repair")
+        ]
+        if rows:
+            _emit("repairer", rows)
+
+    return {"/observations": obs, "/diagnosis": diag, "/repair_log": log, "/diagnostics": status}
+
+
+def _graph_nodes_ros1() -> list[str]:
+    import rosgraph
+
+    try:
+        state = rosgraph.Master("/racc_soak_monitor").getSystemState()
+    except Exception:  # the master is going away
+        return []
+    return sorted({n.lstrip("/") for group in state for _, nodes in group for n in nodes})
 
 
 def _monitor_ros1() -> None:
@@ -271,6 +295,7 @@ def _monitor_ros1() -> None:
     rospy.init_node("racc_soak_monitor", anonymous=True)
     for topic, callback in _callbacks().items():
         rospy.Subscriber(topic, DiagnosticArray, callback, queue_size=100)
+    rospy.Timer(rospy.Duration(1.0), lambda _event: _emit("nodes", _graph_nodes_ros1()))
     _emit("ready", [])
     rospy.spin()
 
@@ -284,7 +309,9 @@ def _monitor_ros2() -> None:
     rclpy.init()
     node = rclpy.create_node(f"racc_soak_monitor_{os.getpid()}")
     for topic, callback in _callbacks().items():
-        node.create_subscription(DiagnosticArray, topic, callback, reliable(50, True))
+        # /diagnostics is not latched: a transient-local subscription would not match it.
+        latched = topic != "/diagnostics"
+        node.create_subscription(DiagnosticArray, topic, callback, reliable(50, latched))
     node.create_timer(1.0, lambda: _emit("nodes", sorted(node.get_node_names())))
     _emit("ready", [])
     with suppress(KeyboardInterrupt):

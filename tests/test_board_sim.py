@@ -268,6 +268,36 @@ def test_idle_connections_that_never_complete_a_frame_do_not_lock_clients_out(
     run(test, limit_s=20.0)
 
 
+def test_idle_connections_cannot_lock_the_control_port_out() -> None:
+    """40 idle connections on the board port and 40 on the control port: the board's slots
+    are full, yet a fault can still be injected, since the control port counts its own
+    connections and a new one closes the longest-idle one beyond MAX_CONTROL."""
+
+    async def main() -> None:
+        sim = BoardSimulator(TEDUSAR, 10)
+        port, control = await sim.start()
+        assert control is not None
+        idle: list[asyncio.StreamWriter] = []
+        try:
+            for target in (port, control):
+                for _ in range(40):
+                    _, writer = await asyncio.open_connection("127.0.0.1", target)
+                    idle.append(writer)
+            await asyncio.sleep(0.2)
+            assert len(sim.sessions) == sim_module.MAX_CLIENTS  # the board port is full
+            assert len(sim.controls) == sim_module.MAX_CONTROL
+            reply = await send_control("127.0.0.1", control, "trip jaguar")
+            assert reply == "ok trip channel 1 (jaguar)"
+            assert sim.state.measurements().channels[0].on is False
+            assert len(sim.controls) <= sim_module.MAX_CONTROL
+        finally:
+            for writer in idle:
+                writer.transport.abort()
+            await sim.close()
+
+    asyncio.run(asyncio.wait_for(main(), 15.0))
+
+
 def test_a_client_that_completes_a_frame_is_not_timed_out(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

@@ -296,12 +296,12 @@ def test_parse_literal_does_not_scan_the_model_per_call(
     tedusar: Theory, known_atoms_calls: list[int]
 ) -> None:
     """parse_literal once per observation built known_atoms (a set of every atom of the
-    model) each time: quadratic in the observations; it asks the clause index instead."""
+    model) each time: quadratic in the observations; now once per theory."""
     calls = known_atoms_calls
     literals = [parse_literal(f"not {a}", tedusar) for a in tedusar.props]
     assert [lit.atom for lit in literals] == list(tedusar.props)
     assert not any(lit.positive for lit in literals)
-    assert calls == []
+    assert len(calls) <= 1
     with pytest.raises(RacError) as err:  # an unknown atom still names the nearest one
         parse_literal("ok(poze)", tedusar)
     assert err.value.diagnostics[0].hint == "did you mean 'ok(pose)'?"

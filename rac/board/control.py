@@ -91,12 +91,16 @@ async def serve_control(
     reader: asyncio.StreamReader,
     writer: asyncio.StreamWriter,
     log: Callable[[str], None],
+    seen: Callable[[], None] = lambda: None,
 ) -> None:
-    """One control connection: lines until ``quit`` or EOF; bad lines get ``error``."""
+    """One control connection: lines until ``quit`` or EOF; bad lines get ``error``.
+    ``seen`` is called on each line (the simulator closes the longest-idle connection to
+    make room for a new one)."""
     try:
         while True:
             try:
                 raw = await reader.readuntil(b"\n")
+                seen()
             except asyncio.IncompleteReadError as partial:
                 raw = partial.partial
                 if not raw:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 from collections.abc import Callable
+from typing import Any
 
 from rac.board.channels import ChannelMap
 from rac.board.control import MAX_LINE, serve_control
@@ -41,6 +42,11 @@ MAX_CLIENTS = 32
 # A connection that completes no frame this long after connecting is closed: a real client
 # sends BRD or RQS at once, and 32 idle (slowloris) connections locked every client out.
 FIRST_FRAME_S = 10.0
+# The control port has its own connections, never counted against the board's clients, so
+# a full board port cannot lock the operator out.  At most MAX_CONTROL at once: a new one
+# beyond that closes the one that has been idle longest (a stuck or slowloris control
+# connection), so the control port always has a slot for a new command.
+MAX_CONTROL = 8
 MAX_BUFFERED = 1 << 20  # a client that stops reading is dropped past this backlog
 READ_SIZE = 4096
 DRAIN_TIMEOUT_S = 5.0  # a client that reads nothing for this long is dropped
@@ -128,6 +134,8 @@ class BoardSimulator:
         self.state = BoardState(channels, count, seed)
         self.log = log
         self.sessions: set[Session] = set()
+        # control connections -> when each last sent a line (loop time)
+        self.controls: dict[asyncio.StreamWriter, float] = {}
         self._servers: list[asyncio.Server] = []
         self._tasks: set[asyncio.Task[object]] = set()
 
@@ -164,7 +172,31 @@ class BoardSimulator:
     async def _serve_control(
         self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter
     ) -> None:
-        await serve_control(self.state, self.channels, reader, writer, self.log)
+        loop = asyncio.get_running_loop()
+        if len(self.controls) >= MAX_CONTROL:
+            idlest = min(self.controls, key=self.controls.__getitem__)
+            self.log(f"control: {MAX_CONTROL} connections: closed the longest idle")
+            self._close_control(idlest)
+        self.controls[writer] = loop.time()
+
+        def seen() -> None:
+            if writer in self.controls:
+                self.controls[writer] = loop.time()
+
+        task = asyncio.current_task()
+        if task is not None:
+            self._tasks.add(task)
+        try:
+            await serve_control(self.state, self.channels, reader, writer, self.log, seen)
+        finally:
+            self.controls.pop(writer, None)
+            if task is not None:
+                self._tasks.discard(task)
+
+    def _close_control(self, writer: asyncio.StreamWriter) -> None:
+        del self.controls[writer]
+        transport: Any = writer.transport
+        transport.abort()  # its handler then reads EOF and ends
 
     async def _serve_client(
         self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter

@@ -20,7 +20,16 @@ from rac.errors import Diagnostic, RacError
 from rac.load.files import load_model
 from rac.load.output import resolved_path
 from rac.load.ros_package import write_package
-from rac.runtime.demo import DEFAULT_PERIOD_S, DemoNode, fault_text, parse_demo_fault, trips
+from rac.runtime.demo import (
+    DEFAULT_PERIOD_S,
+    AfterRuntime,
+    DemoNode,
+    FaultClock,
+    due_trips,
+    fault_text,
+    parse_demo_fault,
+    trips,
+)
 from rac.synth.faults import Fault
 from rac.targets.demo_launch import launch_text, launch_xml_text
 
@@ -62,7 +71,9 @@ def register(sub: Any) -> None:
         action="append",
         default=[],
         metavar="KIND@T[+D]:TARGET",
-        help="inject a fault: KIND at T s for D s (default: to the end) into TARGET",
+        help="inject a fault: KIND at T s for D s (default: to the end) into TARGET; T counts "
+        "from the demo's start, or, written @+T, from when the runtime is first seen (its "
+        "observer host starts)",
     )
     parser.add_argument("--seed", type=int, default=0, help="seed of the signals (default: 0)")
     parser.add_argument(
@@ -288,14 +299,23 @@ def _run_faults(
     import asyncio
 
     pending = list(trips(faults))
+    clock = FaultClock(epoch)
+    # faults written KIND@+T wait for the runtime: say when it is seen
+    waiting = any(isinstance(f, AfterRuntime) for f in faults)
     end = None if args.duration is None else epoch + args.duration
     while end is None or time.time() < end:
         if watched is not None and watched.poll() is not None:
             raise RacError([Diagnostic("RAC115", f"roslaunch of {launch} ended early")])
         for p in procs:
             p.poll()  # a crashed node is reaped: no zombie keeps its name
-        while pending and time.time() >= epoch + pending[0].start:
-            f = pending.pop(0)
+        if waiting and clock.seen(time.time()) is not None:
+            waiting = False
+            print(
+                f"t={time.time():.3f} demo: runtime seen (its observer host started at "
+                f"t={clock.runtime_seen:.3f}); faults written @+T count from there",
+                flush=True,
+            )
+        for f in due_trips(pending, clock, time.time()):
             reply = asyncio.run(send_control("127.0.0.1", args.control_port, f"trip {f.target}"))
             print(f"t={time.time():.3f} demo fault: trip {f.target}: {reply}", flush=True)
         time.sleep(0.1)

@@ -116,10 +116,26 @@ def parse_literal(text: str, theory: Theory) -> Literal:
     """``ok(pose)``, ``not ok(pose)``, ``not_ok(pose)`` or ``¬ok(pose)`` as a literal.
 
     RacError RAC041 when it is not a literal, RAC040 when the theory does not know the atom.
-    The atom is looked up in the theory's clause index (built once per theory), not in a
-    set of every atom built per call: a call per observation stays linear.
+    The theory's atoms are gathered once per theory (the last few are kept), not once per
+    call: a call per observation stays linear in the observations.
     """
-    return literal_at(text, theory, None, known_lookup(theory))
+    return literal_at(text, theory, None, _known_of(theory))
+
+
+_KNOWN_CACHE: dict[int, tuple[Theory, frozenset[Atom]]] = {}
+_KNOWN_CACHE_SIZE = 8
+
+
+def _known_of(theory: Theory) -> frozenset[Atom]:
+    """:func:`known_atoms` of ``theory``, computed once per theory object."""
+    hit = _KNOWN_CACHE.get(id(theory))
+    if hit is not None and hit[0] is theory:
+        return hit[1]
+    known = known_atoms(theory)
+    if len(_KNOWN_CACHE) >= _KNOWN_CACHE_SIZE:
+        _KNOWN_CACHE.pop(next(iter(_KNOWN_CACHE)))
+    _KNOWN_CACHE[id(theory)] = (theory, known)  # holds the theory, so its id stays unique
+    return known
 
 
 def literal_at(

@@ -4,11 +4,15 @@ machine's agent, and the agent's side in that machine's observer host."""
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from typing import Any
 
+from rac.passes.machines import node_placements
+from rac.passes.observers import ObserverSpec
+from rac.ros1.common import Ros1Bus
 from rac.runtime.nodes import RepairJob
 from rac.runtime.repairer import Actuator
-from rac.runtime.routing import Agent, RoutedActuator, agent_topic, no_agent
+from rac.runtime.routing import Agent, RoutedActuator, agent_started, agent_topic, no_agent
 
 CONNECT_S = 3.0  # for the agents' subscriptions to connect before the first request
 
@@ -32,7 +36,7 @@ def routed_actuator(rospy: Any, job: RepairJob, local: Any) -> Actuator:
             raise no_agent(machine, node)
         pub.publish(KeyValue(key=action, value=node))
 
-    return RoutedActuator(local, job.placements, job.machine, ask, local.switch)
+    return RoutedActuator(local, job.placements, job.machine, ask)
 
 
 def serve_agent(rospy: Any, agent: Agent) -> Any:
@@ -43,3 +47,19 @@ def serve_agent(rospy: Any, agent: Agent) -> Any:
         agent.request(msg.key, msg.value)
 
     return rospy.Subscriber(agent_topic(agent.machine), KeyValue, receive, queue_size=20)
+
+
+def start_agent(
+    bus: Ros1Bus, specs: Sequence[ObserverSpec], machine: str | None, launch: str | None
+) -> Agent | None:
+    """The racc agent of ``machine``, restarting its nodes from ``launch`` or by their
+    container; None without a machine."""
+    if machine is None:
+        return None
+    from rac.ros1.repairer import Ros1Actuator
+
+    local = Ros1Actuator(bus.rospy, launch) if launch else None
+    agent = Agent(machine, node_placements(specs), local)
+    serve_agent(bus.rospy, agent)
+    bus.log(0, agent_started(machine, launch))
+    return agent

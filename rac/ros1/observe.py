@@ -1,19 +1,21 @@
-"""The observer host node (``racc observe``): every observer in one rospy process."""
+"""The observer host node (``racc observe``): every observer in one rospy process.
+
+What it subscribes is this file's; the sample loop, the agent's turn and the publication
+rule are :func:`rac.runtime.nodes.run_observer_node`'s, shared with ROS 2.
+"""
 
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
 from typing import Any
 
-from rac.passes.machines import node_placements
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec
-from rac.ros1.agent import serve_agent
-from rac.ros1.common import connection_type, require_ros, resolve_pid, to_array
-from rac.runtime.host import HostLoop, ObserverHost, Schedule
+from rac.ros1.agent import start_agent
+from rac.ros1.common import Ros1Bus, connection_type, resolve_pid
+from rac.runtime.host import ObserverHost
+from rac.runtime.nodes import run_observer_node
 from rac.runtime.procs import ProcessProbe
-from rac.runtime.routing import Agent, agent_topic
-from rac.runtime.status import OBSERVATIONS, rows_from_array
+from rac.runtime.status import rows_from_array
 from rac.runtime.values import Readers
 
 
@@ -26,83 +28,38 @@ def run_observe(
     machine: str | None = None,
     launch: str | None = None,
 ) -> None:
-    rospy = require_ros()
+    bus = Ros1Bus(name)
+    rospy = bus.rospy
     from diagnostic_msgs.msg import DiagnosticArray
 
-    rospy.init_node(name)
     host = ObserverHost(specs)
-    host.source = str(rospy.get_name()).lstrip("/")
-    agent = start_agent(rospy, specs, machine, launch)
+    host.source = bus.name
+    agent = start_agent(bus, specs, machine, launch)
     bank = host.bank
-    pub = rospy.Publisher(OBSERVATIONS, DiagnosticArray, queue_size=10, latch=True)
     readers = Readers(bank.topic_fields())
 
     def on_message(msg: Any, topic: str) -> None:
         values, stamp = readers.read(topic, msg._buff, lambda: connection_type(msg))
         host.message(topic, values, stamp)
 
-    subs = [
+    for topic in sorted(bank.topic_fields()):
         rospy.Subscriber(topic, rospy.AnyMsg, on_message, callback_args=topic, queue_size=50)
-        for topic in sorted(bank.topic_fields())
-    ]
     if bank.devices:
-        subs.append(
-            rospy.Subscriber(
-                DIAGNOSTICS_TOPIC, DiagnosticArray, lambda a: host.device_rows(rows_from_array(a))
-            )
+        rospy.Subscriber(
+            DIAGNOSTICS_TOPIC, DiagnosticArray, lambda a: host.device_rows(rows_from_array(a))
         )
     if bank.needs_board:
-        subs.append(
-            rospy.Subscriber(
-                BOARD_TOPIC, DiagnosticArray, lambda a: host.channel_rows(rows_from_array(a))
-            )
+        rospy.Subscriber(
+            BOARD_TOPIC, DiagnosticArray, lambda a: host.channel_rows(rows_from_array(a))
         )
     probe = ProcessProbe(bank.nodes, resolve_pid, bank.properties)
-    rospy.loginfo(
-        "racc observe: %d observers, %d topics, %d nodes%s",
-        len(specs),
-        len(subs),
-        len(probe.nodes),
-        f" (machine {machine})" if machine else "",
+    run_observer_node(
+        bus,
+        host,
+        probe,
+        topics=len(bank.topic_fields()),
+        sample_hz=sample_hz,
+        republish_s=republish_s,
+        agent=agent,
+        machine=machine,
     )
-    period = 1.0 / sample_hz
-    loop = HostLoop(host, probe, republish_s, Schedule(period_s=period))
-    next_tick = time.time()
-    while not rospy.is_shutdown():
-        if agent is not None:
-            for level, line in agent.step(host.clock()):
-                (rospy.logerr if level >= 2 else rospy.logwarn if level else rospy.loginfo)(line)
-        step = loop.step(time.time())
-        for line in step.lines:
-            rospy.loginfo(line)
-        for warning in step.warnings:
-            rospy.logwarn("racc observe: %s", warning)
-        if step.rows is not None:
-            pub.publish(to_array(step.rows))
-        next_tick += period
-        delay = next_tick - time.time()
-        if delay > 0:
-            time.sleep(delay)
-        else:
-            next_tick = time.time()
-
-
-def start_agent(
-    rospy: Any, specs: Sequence[ObserverSpec], machine: str | None, launch: str | None
-) -> Agent | None:
-    """The racc agent of ``machine`` (rac.runtime.routing), restarting its nodes from
-    ``launch`` or by their container; None without a machine."""
-    if machine is None:
-        return None
-    from rac.ros1.repairer import Ros1Actuator
-
-    local = Ros1Actuator(rospy, launch) if launch else None
-    agent = Agent(machine, node_placements(specs), local)
-    serve_agent(rospy, agent)
-    rospy.loginfo(
-        "racc agent %s: restarts its nodes on %s (launch file %s)",
-        machine,
-        agent_topic(machine),
-        launch or "none",
-    )
-    return agent

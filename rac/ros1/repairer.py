@@ -37,8 +37,9 @@ from rac.ros1.common import (
     proxy,
     resolve_pid,
 )
-from rac.runtime.detached import Detached, kill_pids, listening_pid, started_note
+from rac.runtime.detached import Detached, kill_pids, started_note
 from rac.runtime.nodes import RepairJob, run_repair_node
+from rac.runtime.placement import listening_pid
 from rac.runtime.procs import terminate
 
 

@@ -13,7 +13,7 @@ from rac.ros2.actuator import Ros2Actuator
 from rac.ros2.common import Session, reliable
 from rac.runtime.nodes import RepairJob
 from rac.runtime.repairer import Actuator
-from rac.runtime.routing import Agent, RoutedActuator, agent_topic, no_agent
+from rac.runtime.routing import Agent, RoutedActuator, agent_started, agent_topic, no_agent
 
 CONNECT_S = 3.0  # for the agents' subscriptions to be matched before the first request
 
@@ -38,7 +38,7 @@ def routed_actuator(session: Session, job: RepairJob, local: Any) -> Actuator:
             raise no_agent(machine, name)
         pub.publish(KeyValue(key=action, value=name))
 
-    return RoutedActuator(local, job.placements, job.machine, ask, local.switch)
+    return RoutedActuator(local, job.placements, job.machine, ask)
 
 
 def start_agent(
@@ -57,9 +57,5 @@ def start_agent(
         agent.request(msg.key, msg.value)
 
     session.node.create_subscription(KeyValue, agent_topic(machine), receive, reliable(20))
-    session.log(
-        0,
-        f"racc agent {machine}: restarts its nodes on {agent_topic(machine)} "
-        f"(launch file {launch or 'none'})",
-    )
+    session.log(0, agent_started(machine, launch))
     return agent

@@ -5,30 +5,22 @@ Topics are subscribed as they appear in the graph (raw CDR, best effort, with th
 graph names; only the fields an observer reads are deserialized, with rosbags).  NObs:
 the graph (``get_node_names_and_namespaces``) and the node's process, found by its
 ``__node:=`` argument (:class:`rac.ros2.common.PidResolver`); PObs: cpu and memory of that
-process.  The observers, their schedule and the publication rule are
-:class:`rac.runtime.host.HostLoop`'s.
+process.  The sample loop, the agent's turn and the publication rule
+are :func:`rac.runtime.nodes.run_observer_node`'s, shared with ROS 1.
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
 from typing import Any
 
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec
 from rac.ros2.agent import start_agent
-from rac.ros2.common import (
-    PidResolver,
-    Session,
-    graph_nodes,
-    message_class,
-    reliable,
-    sensor_qos,
-    to_array,
-)
-from rac.runtime.host import HostLoop, ObserverHost, Schedule
+from rac.ros2.common import PidResolver, Session, graph_nodes, message_class, sensor_qos
+from rac.runtime.host import ObserverHost
+from rac.runtime.nodes import run_observer_node
 from rac.runtime.procs import ProcessProbe
-from rac.runtime.status import OBSERVATIONS, rows_from_array
+from rac.runtime.status import rows_from_array
 from rac.runtime.values import Readers
 
 DISCOVER_S = 0.5
@@ -51,11 +43,11 @@ def run_observe(
     host.source = session.name
     agent = start_agent(session, specs, machine, launch)
     bank = host.bank
-    pub = node.create_publisher(DiagnosticArray, OBSERVATIONS, reliable(10, latched=True))
     readers = Readers(bank.topic_fields(), ros_version=2)
     wanted = frozenset(bank.topic_fields())
     subs: dict[str, Any] = {}
     unknown: set[str] = set()
+    next_discover = 0.0
 
     def subscribe(topic: str, ros_type: str) -> None:
         cls = message_class(ros_type)
@@ -71,56 +63,36 @@ def run_observe(
 
         subs[topic] = node.create_subscription(cls, topic, on_message, sensor_qos(), raw=True)
 
-    def discover() -> None:
+    def discover(now: float) -> None:
+        nonlocal next_discover
+        if now < next_discover or len(subs) == len(wanted):
+            return
+        next_discover = now + DISCOVER_S
         for topic, types in node.get_topic_names_and_types():
             if topic in wanted and topic not in subs and types:
                 subscribe(topic, types[0])
 
-    if bank.devices:
-        node.create_subscription(
-            DiagnosticArray,
-            DIAGNOSTICS_TOPIC,
-            lambda a: host.device_rows(rows_from_array(a)),
-            sensor_qos(),
-        )
-    if bank.needs_board:
-        node.create_subscription(
-            DiagnosticArray,
-            BOARD_TOPIC,
-            lambda a: host.channel_rows(rows_from_array(a)),
-            sensor_qos(),
-        )
+    for topic, feed in (
+        (DIAGNOSTICS_TOPIC, host.device_rows if bank.devices else None),
+        (BOARD_TOPIC, host.channel_rows if bank.needs_board else None),
+    ):
+        if feed is not None:
+            node.create_subscription(
+                DiagnosticArray, topic, lambda a, f=feed: f(rows_from_array(a)), sensor_qos()
+            )
     resolver = PidResolver(lambda: graph_nodes(session))
     probe = ProcessProbe(bank.nodes, resolver, bank.properties, recheck_s=1.0)
-    session.log(
-        0,
-        f"racc observe: {len(specs)} observers, {len(wanted)} topics, {len(probe.nodes)} nodes"
-        + (f" (machine {machine})" if machine else ""),
-    )
-    period = 1.0 / sample_hz
-    loop = HostLoop(host, probe, republish_s, Schedule(period_s=period))
-    next_tick = next_discover = time.time()
     try:
-        while session.ok:
-            now = time.time()
-            if now >= next_discover and len(subs) < len(wanted):
-                discover()
-                next_discover = now + DISCOVER_S
-            if agent is not None:
-                for level, line in agent.step(host.clock()):
-                    session.log(level, line)
-            step = loop.step(now)
-            for line in step.lines:
-                session.log(0, line)
-            for warning in step.warnings:
-                session.log(1, f"racc observe: {warning}")
-            if step.rows is not None:
-                pub.publish(to_array(session, step.rows))
-            next_tick += period
-            delay = next_tick - time.time()
-            if delay > 0:
-                time.sleep(delay)
-            else:
-                next_tick = time.time()
+        run_observer_node(
+            session,
+            host,
+            probe,
+            topics=len(wanted),
+            sample_hz=sample_hz,
+            republish_s=republish_s,
+            agent=agent,
+            machine=machine,
+            each_tick=discover,
+        )
     finally:
         session.close()

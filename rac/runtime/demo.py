@@ -8,7 +8,8 @@ that related signals of different nodes stay related.  The world repeats every
 synth's event rates.  Messages are serialized with rosbags' typestores, custom types
 (``tedusar_msgs/ServoState``) included, so no message package is needed.
 
-Faults (``KIND@T[+D]:TARGET``, T seconds after the epoch):
+Faults (``KIND@T[+D]:TARGET``, T seconds after the epoch; ``KIND@+T[+D]:TARGET``, T seconds
+after the runtime was first seen, :class:`FaultClock`):
 
     crash@T:node      the node's process exits
     freq@T:/topic     the topic is published five times as often
@@ -26,12 +27,15 @@ device on, as a driver that lost its hardware connection does.
 from __future__ import annotations
 
 import heapq
+import itertools
+import os
 import subprocess
 import sys
 import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -55,10 +59,27 @@ DEFAULT_MEM = 100 * 1024 * 1024
 STAND_IN = "std_msgs/msg/Float64MultiArray"
 
 
+@dataclass(frozen=True, slots=True)
+class AfterRuntime(Fault):
+    """A fault written ``KIND@+T``: its ``start`` counts from when the runtime was first seen
+    (:class:`FaultClock`), not from the demo's epoch."""
+
+
 def parse_demo_fault(spec: str, model: Model) -> Fault:
-    """synth's faults plus ``trip@T:device`` (RAC113 when malformed)."""
-    match = FAULT_SPEC.fullmatch(spec.strip())
-    hint = "write KIND@T[+D]:TARGET, e.g. crash@20:jaguar_node, freq@20:/scan, trip@20:jaguar"
+    """synth's faults plus ``trip@T:device`` and ``KIND@+T`` (RAC113 when malformed)."""
+    spec = spec.strip()
+    kind, at, rest = spec.partition("@+")
+    if at:
+        if kind == "slip":
+            hint = "a slip is in the world every node simulates from the epoch: write slip@T"
+            raise RacError([Diagnostic("RAC113", f"fault '{spec}': no @+T for slip", hint=hint)])
+        f = parse_demo_fault(f"{kind}@{rest}", model)
+        return AfterRuntime(f.kind, f.start, f.duration, f.target)
+    match = FAULT_SPEC.fullmatch(spec)
+    hint = (
+        "write KIND@T[+D]:TARGET (or KIND@+T[+D]:TARGET: T s after the runtime is seen), "
+        "e.g. crash@20:jaguar_node, freq@20:/scan, trip@+20:jaguar"
+    )
     if match is not None and match["kind"] == "trip":
         switchable = sorted(h.name.value for h in model.hardware if h.switchable)
         if match["target"] not in switchable:
@@ -75,7 +96,73 @@ def parse_demo_fault(spec: str, model: Model) -> Fault:
 
 def fault_text(f: Fault) -> str:
     span = f"+{f.duration:g}" if f.duration is not None else ""
-    return f"{f.kind}@{f.start:g}{span}:{f.target}"
+    after = "+" if isinstance(f, AfterRuntime) else ""
+    return f"{f.kind}@{after}{f.start:g}{span}:{f.target}"
+
+
+# An observer host's command line names it: roslaunch and racc run give ``__name:=`` (ROS
+# 1) or ``__node:=`` (ROS 2) racc_observer[_MACHINE]; by hand it is ``racc observe``.
+HOST_NAMES = ("__name:=racc_observer", "__node:=racc_observer")
+SEEN_POLL_S = 0.5
+
+
+def is_observer_host(cmdline: Sequence[str]) -> bool:
+    if any(a.startswith(HOST_NAMES) for a in cmdline):
+        return True
+    return any(
+        Path(a).name in ("racc", "rac") and b == "observe" for a, b in itertools.pairwise(cmdline)
+    )
+
+
+GRAPH_VARIABLES = ("ROS_MASTER_URI", "ROS_DOMAIN_ID")  # which ROS graph a process is in
+
+
+def observer_host_started() -> float | None:
+    """When the oldest racc observer host of this ROS graph (the same ROS_MASTER_URI and
+    ROS_DOMAIN_ID as ours) running on this machine started (epoch seconds); None while
+    there is none."""
+    import psutil
+
+    ours = [os.environ.get(v, "") for v in GRAPH_VARIABLES]
+    starts = []
+    for proc in psutil.process_iter(["cmdline", "create_time"]):
+        if not is_observer_host(proc.info["cmdline"] or []):
+            continue
+        try:
+            env = proc.environ()
+        except psutil.Error:
+            continue
+        if [env.get(v, "") for v in GRAPH_VARIABLES] == ours:
+            starts.append(float(proc.info["create_time"]))
+    return min(starts) if starts else None
+
+
+class FaultClock:
+    """When each fault starts (epoch seconds).  ``KIND@T``: T s after the demo's epoch.
+    ``KIND@+T``: T s after the runtime was first seen, which is the start of the oldest
+    observer host on this machine, so that every demo node, the ones the repair engine
+    restarts later included, counts from the same moment (a restarted node, started after
+    that moment plus T, is not hit again); None until an observer host runs."""
+
+    def __init__(
+        self, epoch: float, find: Callable[[], float | None] = observer_host_started
+    ) -> None:
+        self.epoch, self.find = epoch, find
+        self.runtime_seen: float | None = None
+        self._next_look = 0.0
+
+    def seen(self, now: float) -> float | None:
+        """When the runtime was first seen, looked for at most every SEEN_POLL_S."""
+        if self.runtime_seen is None and now >= self._next_look:
+            self._next_look = now + SEEN_POLL_S
+            self.runtime_seen = self.find()
+        return self.runtime_seen
+
+    def start(self, f: Fault, now: float) -> float | None:
+        if not isinstance(f, AfterRuntime):
+            return self.epoch + f.start
+        seen = self.seen(now)
+        return None if seen is None else seen + f.start
 
 
 @dataclass(frozen=True, slots=True)
@@ -104,13 +191,15 @@ class DemoNode:
         period_s: float = DEFAULT_PERIOD_S,
         faults: Sequence[Fault] = (),
         ros_version: int = 1,
+        clock: FaultClock | None = None,
     ) -> None:
         by_name = model.node_by_name()
         if node not in by_name:
             known = ", ".join(sorted(by_name))
             raise RacError([Diagnostic("RAC113", f"the model has no node '{node}' ({known})")])
         self.model, self.name, self.node = model, node, by_name[node]
-        self.epoch, self.started_world = epoch, started - epoch
+        self.epoch, self.started, self.started_world = epoch, started, started - epoch
+        self.clock = clock or FaultClock(epoch)
         self.period_s = period_s
         self.ros_version = ros_version
         self.faults = tuple(f for f in faults if f.kind != "trip")
@@ -209,14 +298,19 @@ class DemoNode:
         return bytes(store.serialize_cdr(array, STAND_IN))
 
     def _active(self, kind: str, target: str, now: float) -> bool:
-        t = now - self.epoch
-        return any(
-            f.kind == kind
-            and f.target == target
-            and f.active(t)
-            and (kind not in SOFTWARE or self.started_world < f.start)
-            for f in self.faults
-        )
+        for f in self.faults:
+            if f.kind != kind or f.target != target:
+                continue
+            start = self.clock.start(f, now)
+            if (
+                start is None
+                or now < start
+                or (f.duration is not None and now >= start + f.duration)
+            ):
+                continue
+            if kind not in SOFTWARE or self.started < start:
+                return True
+        return False
 
     def rate(self, topic: LiveTopic, now: float) -> float:
         factor = FREQ_FACTOR if self._active("freq", topic.name, now) else 1.0
@@ -239,14 +333,17 @@ class DemoNode:
         limit = self.node.limits.mem
         return 2 * limit if limit else DEFAULT_MEM
 
-    def first_fault_s(self) -> float | None:
-        """When the next software fault of this process is due (epoch seconds)."""
-        due = [f.start for f in self.faults if f.kind in SOFTWARE and self.started_world < f.start]
-        return self.epoch + min(due) if due else None
-
 
 def trips(faults: Sequence[Fault]) -> tuple[Fault, ...]:
     return tuple(sorted((f for f in faults if f.kind == "trip"), key=lambda f: f.start))
+
+
+def due_trips(pending: list[Fault], clock: FaultClock, now: float) -> list[Fault]:
+    """The trips of ``pending`` due at ``now``, taken out of it (``racc demo`` trips them)."""
+    due = [f for f in pending if (start := clock.start(f, now)) is not None and now >= start]
+    for f in due:
+        pending.remove(f)
+    return due
 
 
 def node_names(model: Model) -> tuple[str, ...]:

@@ -122,18 +122,3 @@ def kill_pids(node: str, pids: Sequence[int]) -> str:
         with contextlib.suppress(OSError):  # gone already: killed is killed
             os.kill(pid, signal.SIGKILL)
     return f"SIGKILL to pid {', '.join(str(p) for p in pids)}"
-
-
-def listening_pid(port: int) -> int | None:
-    """The local process that listens on TCP ``port`` (a ROS 1 node's XML-RPC server),
-    found without asking it: a frozen node does not answer ``getPid``."""
-    import psutil
-
-    try:
-        connections = psutil.net_connections("tcp")
-    except psutil.Error:
-        return None
-    for c in connections:
-        if c.status == psutil.CONN_LISTEN and c.laddr and c.laddr.port == port and c.pid:
-            return int(c.pid)
-    return None

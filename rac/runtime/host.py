@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, replace
 
 from rac.logic import Atom
@@ -297,3 +297,23 @@ class HostLoop:
             rows = host.rows()
             self._last_publish = now
         return HostStep(tuple(lines), warnings, rows)
+
+
+def ticks(
+    period_s: float,
+    running: Callable[[], bool],
+    clock: Callable[[], float] = time.time,
+    sleep: Callable[[float], None] = time.sleep,
+) -> Iterator[float]:
+    """The sample loop's pace: the clock's time once every ``period_s`` while ``running()``.
+    A tick that comes late does not make the next ones come early to catch up (a starved
+    host would otherwise run a burst of ticks): the schedule starts again from now."""
+    next_tick = clock()
+    while running():
+        yield clock()
+        next_tick += period_s
+        delay = next_tick - clock()
+        if delay > 0:
+            sleep(delay)
+        else:
+            next_tick = clock()

@@ -1,9 +1,10 @@
-"""The diagnosis and repair nodes' main loops, written once for both ROS versions.
+"""The observer host's, the diagnosis and the repair nodes' main loops, written once for
+both ROS versions.
 
 A node needs little from ROS: publish and receive arrays of statuses, receive a string, log,
 and know when to stop.  :class:`Bus` is that much; ``rac.ros1.common.Ros1Bus`` and
 ``rac.ros2.common.Session`` provide it over rospy and rclpy.  What the nodes decide is
-:mod:`rac.runtime.diagnoser`'s and :mod:`rac.runtime.repairer`'s.
+:mod:`rac.runtime.host`'s, :mod:`rac.runtime.diagnoser`'s and :mod:`rac.runtime.repairer`'s.
 """
 
 from __future__ import annotations
@@ -17,7 +18,10 @@ from typing import Protocol
 from rac.diagnosis import Theory
 from rac.passes.observers import DIAGNOSTICS_TOPIC
 from rac.runtime.diagnoser import EngineLoop
+from rac.runtime.host import HostLoop, ObserverHost, Schedule, ticks
+from rac.runtime.procs import ProcessProbe
 from rac.runtime.repairer import Actuator, LogEntry, RepairExecutor, Settings
+from rac.runtime.routing import Agent
 from rac.runtime.status import DIAGNOSIS, OBSERVATIONS, REPAIR_LOG, REPAIR_PLAN, Row
 
 POLL_S = 0.05
@@ -59,6 +63,46 @@ class Bus(Protocol):
         """Call ``callback`` with each ``std_msgs/String`` on ``topic`` (``~name``: the
         node's private topic)."""
         ...
+
+
+def run_observer_node(
+    bus: Bus,
+    host: ObserverHost,
+    probe: ProcessProbe,
+    *,
+    topics: int,
+    sample_hz: float = 10.0,
+    republish_s: float = 1.0,
+    agent: Agent | None = None,
+    machine: str | None = None,
+    each_tick: Callable[[float], None] | None = None,
+) -> None:
+    """Run the observer host on ``/observations`` until the bus stops: every
+    ``1/sample_hz`` s the machine's racc agent carries out its requests, then
+    :class:`HostLoop` samples and publishes (on a change, and every ``republish_s``).
+    The transport has subscribed ``host`` to its ``topics`` already; ``each_tick`` runs
+    first in each tick with the time (ROS 2 subscribes topics as they appear there)."""
+    publish = bus.rows_publisher(OBSERVATIONS, 10, latched=True)
+    bus.log(
+        0,
+        f"racc observe: {len(host.specs)} observers, {topics} topics, {len(probe.nodes)} nodes"
+        + (f" (machine {machine})" if machine else ""),
+    )
+    period = 1.0 / sample_hz
+    loop = HostLoop(host, probe, republish_s, Schedule(period_s=period))
+    for now in ticks(period, lambda: bus.ok):
+        if each_tick is not None:
+            each_tick(now)
+        if agent is not None:
+            for level, line in agent.step(host.clock()):
+                bus.log(level, line)
+        step = loop.step(now)
+        for line in step.lines:
+            bus.log(0, line)
+        for warning in step.warnings:
+            bus.log(1, f"racc observe: {warning}")
+        if step.rows is not None:
+            publish(step.rows)
 
 
 def run_engine_node(

@@ -91,23 +91,40 @@ def listening_inodes(port: int) -> set[str]:
     return found
 
 
-def holds_port(pid: int, port: int) -> bool:
-    """The process listens on TCP ``port`` (a ROS 1 node's XML-RPC server)."""
-    inodes = {f"socket:[{i}]" for i in listening_inodes(port)}
-    if not inodes:
-        return False
+def _socket_fds(pid: int | str) -> set[str]:
+    """The ``socket:[INODE]`` links among the process's open files (none when it is gone or
+    not ours to read)."""
     fd_dir = f"/proc/{pid}/fd"
     try:
         fds = os.listdir(fd_dir)
     except OSError:
-        return False
+        return set()
+    links = set()
     for fd in fds:
         try:
-            if os.readlink(f"{fd_dir}/{fd}") in inodes:
-                return True
+            links.add(os.readlink(f"{fd_dir}/{fd}"))
         except OSError:
             continue
-    return False
+    return links
+
+
+def holds_port(pid: int, port: int) -> bool:
+    """The process listens on TCP ``port`` (a ROS 1 node's XML-RPC server)."""
+    inodes = {f"socket:[{i}]" for i in listening_inodes(port)}
+    return bool(inodes) and not inodes.isdisjoint(_socket_fds(pid))
+
+
+def listening_pid(port: int) -> int | None:
+    """The local process that listens on TCP ``port`` (a ROS 1 node's XML-RPC server),
+    found without asking it: a frozen node does not answer ``getPid``.  The repairer kills
+    a frozen node by it."""
+    inodes = {f"socket:[{i}]" for i in listening_inodes(port)}
+    if not inodes:
+        return None
+    for entry in os.listdir("/proc"):
+        if entry.isdigit() and not inodes.isdisjoint(_socket_fds(entry)):
+            return int(entry)
+    return None
 
 
 def names_node(cmdline: Sequence[str], node: str) -> bool:

@@ -21,9 +21,9 @@ import shutil
 import subprocess
 import threading
 from collections.abc import Callable, Mapping, Sequence
-from typing import Protocol
 
 from rac.errors import Diagnostic, RacError
+from rac.runtime.repairer import Actuator
 
 AGENT_TOPIC = "/racc_agent/{machine}"
 ACTIONS = ("start_node", "stop_node", "kill_node")
@@ -33,16 +33,16 @@ CONTAINER_TIMEOUT_S = 30.0
 Placement = tuple[str | None, str | None]  # (machine, "runtime:NAME" container)
 
 
-class NodeActuator(Protocol):
-    def stop_node(self, node: str) -> str | None: ...
-
-    def kill_node(self, node: str) -> str | None: ...
-
-    def start_node(self, node: str) -> str | None: ...
-
-
 def agent_topic(machine: str) -> str:
     return AGENT_TOPIC.format(machine=machine)
+
+
+def agent_started(machine: str, launch: str | None) -> str:
+    """The observer host's log line when its machine's agent is up."""
+    return (
+        f"racc agent {machine}: restarts its nodes on {agent_topic(machine)} "
+        f"(launch file {launch or 'none'})"
+    )
 
 
 def container_command(action: str, container: str) -> list[str]:
@@ -101,14 +101,12 @@ class RoutedActuator:
 
     def __init__(
         self,
-        local: NodeActuator,
+        local: Actuator,
         placements: Mapping[str, Placement],
         here: str | None,
         ask: Callable[[str, str, str], None],
-        switch: Callable[[str, bool], None],
     ) -> None:
         self.local, self.placements, self.here, self.ask = local, placements, here, ask
-        self._switch = switch
 
     def _do(self, action: str, node: str) -> str | None:
         machine, container = self.placements.get(node.strip("/"), (None, None))
@@ -131,8 +129,7 @@ class RoutedActuator:
         return self._do("start_node", node)
 
     def switch(self, device: str, on: bool) -> str | None:
-        self._switch(device, on)
-        return None
+        return self.local.switch(device, on)
 
 
 class Agent:
@@ -143,7 +140,7 @@ class Agent:
         self,
         machine: str,
         placements: Mapping[str, Placement],
-        local: NodeActuator | None,
+        local: Actuator | None,
     ) -> None:
         self.machine, self.placements, self.local = machine, placements, local
         self._queue: list[tuple[str, str]] = []

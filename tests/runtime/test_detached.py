@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import os
 import signal
-import socket
 import sys
 import time
 from pathlib import Path
@@ -13,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from rac.errors import RacError
-from rac.runtime.detached import Detached, kill_pids, listening_pid, started_note
+from rac.runtime.detached import Detached, kill_pids, started_note
 
 SLEEPER = [sys.executable, "-c", "import sys, time; print('up', flush=True); time.sleep(60)"]
 
@@ -60,11 +59,3 @@ def test_kill_needs_a_local_process() -> None:
     with pytest.raises(RacError) as err:
         kill_pids("far_node", [])
     assert err.value.diagnostics[0].code == "RAC124"
-
-
-def test_a_listening_port_names_its_process() -> None:
-    # A frozen ROS 1 node answers no getPid: its pid comes from its XML-RPC port.
-    with socket.socket() as server:
-        server.bind(("127.0.0.1", 0))
-        server.listen()
-        assert listening_pid(server.getsockname()[1]) == os.getpid()

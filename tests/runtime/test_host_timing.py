@@ -3,9 +3,11 @@ its log lines and on /observations."""
 
 from __future__ import annotations
 
+import pytest
+
 from rac.logic import Atom
 from rac.passes.observers import ObserverSpec
-from rac.runtime.host import HostLoop, HostStep, ObserverHost, Schedule
+from rac.runtime.host import HostLoop, HostStep, ObserverHost, Schedule, ticks
 from rac.runtime.procs import ProcessProbe
 
 WALL0 = 1.78e9  # the wall clock when the host's own clock reads 0
@@ -116,3 +118,20 @@ def test_log_lines_and_since_are_wall_clock_times() -> None:
     assert line == f"t={WALL0 + verdict.t:.3f} observation ok(x) (by x_gobs)"
     (row,) = robot.host.rows()
     assert row.value("since") == f"{WALL0 + verdict.t:.3f}"
+
+
+def test_a_late_tick_does_not_make_the_next_ones_come_early() -> None:
+    # A host starved for 0.35 s must not then run three ticks back to back to catch up.
+    now, slept = [0.0], []
+
+    def sleep(s: float) -> None:
+        slept.append(s)
+        now[0] += s
+
+    times = []
+    for t in ticks(0.1, lambda: len(times) < 5, clock=lambda: now[0], sleep=sleep):
+        times.append(t)
+        if len(times) == 2:
+            now[0] += 0.35  # this tick's work took 0.35 s
+    assert times == pytest.approx([0.0, 0.1, 0.45, 0.55, 0.65])
+    assert all(s > 0 for s in slept)

@@ -1,5 +1,6 @@
-"""The diagnosis and repair nodes' loops (rac.runtime.nodes) on a bus without ROS: what
-they subscribe to, what they publish, and that they stop with the bus."""
+"""The observer host's, the diagnosis and the repair nodes' loops (rac.runtime.nodes) on a
+bus without ROS: what they subscribe to, what they publish, and that they stop with the
+bus."""
 
 from __future__ import annotations
 
@@ -13,11 +14,14 @@ from rac.load.files import load_model
 from rac.load.theory import load_theory
 from rac.logic import Atom
 from rac.observe import Verdict
-from rac.passes.observers import DIAGNOSTICS_TOPIC
+from rac.passes.observers import DIAGNOSTICS_TOPIC, ObserverSpec
 from rac.pipeline import compile_model
 from rac.runtime.diagnoser import Diagnoser
-from rac.runtime.nodes import RepairJob, run_engine_node, run_repair_node
+from rac.runtime.host import ObserverHost
+from rac.runtime.nodes import RepairJob, run_engine_node, run_observer_node, run_repair_node
+from rac.runtime.procs import ProcessProbe
 from rac.runtime.repairer import Mode, Settings
+from rac.runtime.routing import Agent
 from rac.runtime.status import (
     DIAGNOSIS,
     OBSERVATIONS,
@@ -54,7 +58,9 @@ class FakeBus:
     @property
     def ok(self) -> bool:
         self.ticks += 1
-        if self.ticks == 2:  # the node is set up and in its loop: the robot speaks
+        if (
+            self.ticks == 2 and OBSERVATIONS in self.rows_callbacks
+        ):  # the node is set up and in its loop: the robot speaks
             self.rows_callbacks[OBSERVATIONS]([literal_row(CRASH, "jaguar_node_pobs")])
         return not self.done(self) and time.monotonic() < self.deadline
 
@@ -101,6 +107,39 @@ def test_the_engine_node_diagnoses_what_it_hears_until_the_bus_stops(model_yaml:
     assert bus.latched == {DIAGNOSIS: True, DIAGNOSTICS_TOPIC: False}
     assert any("jaguar_node" in rows[0].message for rows in bus.published[DIAGNOSTICS_TOPIC])
     assert bus.logged[0][1].startswith(f"racc engine: {model_yaml}")
+
+
+def test_the_observer_node_publishes_runs_its_agent_and_stops_with_the_bus() -> None:
+    # One loop for both ROS versions: each tick the transport's hook, the agent's requests,
+    # then the host's step; the observation set is published latched.
+    spec = ObserverSpec(
+        "NObs", "talker_nobs", (("node", "talker"),), (Atom("running", ("talker",)),)
+    )
+    host = ObserverHost([spec])
+    robot = Robot()
+    agent = Agent("arm", {"talker": ("arm", None)}, robot)
+    agent.request("start_node", "talker")
+    hook_times: list[float] = []
+    bus = FakeBus(lambda b: len(hook_times) >= 5)
+    probe = ProcessProbe(["talker"], lambda _: None)
+    run_observer_node(
+        bus,
+        host,
+        probe,
+        topics=0,
+        sample_hz=50.0,
+        agent=agent,
+        machine="arm",
+        each_tick=hook_times.append,
+    )
+    assert len(hook_times) == 5 and hook_times == sorted(hook_times)
+    assert hook_times[-1] - hook_times[0] >= 4 / 50.0 * 0.9  # paced at 50 Hz
+    assert robot.calls == [("start_node", "talker")]
+    assert bus.latched == {OBSERVATIONS: True}
+    assert bus.published[OBSERVATIONS], "the first tick publishes the observation set"
+    lines = [text for _, text in bus.logged]
+    assert lines[0] == "racc observe: 1 observers, 0 topics, 1 nodes (machine arm)"
+    assert any("agent arm: start_node(talker) done" in line for line in lines), lines
 
 
 class Robot:

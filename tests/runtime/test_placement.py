@@ -29,6 +29,7 @@ from rac.runtime.placement import (
     Found,
     holds_port,
     in_own_pid_namespace,
+    listening_pid,
     names_node,
     prove_by_cmdline,
     prove_ros1,
@@ -104,6 +105,14 @@ def test_a_process_that_holds_the_port_is_the_nodes(listener: int) -> None:
     assert holds_port(os.getpid(), listener) and in_own_pid_namespace(os.getpid())
     found = prove_ros1("talker", os.getpid(), listener)
     assert found.pid == os.getpid() and "XML-RPC port" in found.how
+
+
+def test_a_listening_port_names_its_process(listener: int) -> None:
+    # A frozen ROS 1 node answers no getPid: the repairer kills the pid its XML-RPC port names.
+    assert listening_pid(listener) == os.getpid()
+    with socket.socket() as closed:
+        closed.bind(("127.0.0.1", 0))  # bound, never listening
+        assert listening_pid(closed.getsockname()[1]) is None
 
 
 def test_a_pid_that_neither_holds_the_port_nor_names_the_node_is_not_trusted(

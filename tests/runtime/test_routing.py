@@ -80,6 +80,12 @@ class Local:
     def stop_node(self, node: str) -> None:
         self.calls.append(("stop_node", node))
 
+    def kill_node(self, node: str) -> None:
+        self.calls.append(("kill_node", node))
+
+    def switch(self, device: str, on: bool) -> None:
+        self.calls.append(("switch", f"{device} {'on' if on else 'off'}"))
+
 
 def _fake_runtime(tmp: Path, name: str, code: int = 0) -> Path:
     script = tmp / name
@@ -93,15 +99,14 @@ def test_a_node_is_restarted_where_it_runs(tmp_path: Path, monkeypatch: pytest.M
     monkeypatch.setenv("PATH", f"{tmp_path}:{os.environ['PATH']}")
     local, asked = Local(), []
     placements = node_placements(_compiled().observers)
-    routed = RoutedActuator(
-        local, placements, "base", lambda *a: asked.append(a), lambda d, on: None
-    )
+    routed = RoutedActuator(local, placements, "base", lambda *a: asked.append(a))
     routed.start_node("talker")
     routed.start_node("listener")
     routed.stop_node("camera")
     routed.start_node("camera")
     assert asked == [("arm", "start_node", "talker")]
-    assert local.calls == [("start_node", "listener")]
+    routed.switch("lidar", False)  # the board is this machine's
+    assert local.calls == [("start_node", "listener"), ("switch", "lidar off")]
     assert calls.read_text().split("\n")[:2] == ["stop cam_1", "restart cam_1"]
 
 

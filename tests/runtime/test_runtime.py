@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import os
 import signal
+import subprocess
+import sys
 import time
 from pathlib import Path
 
+import psutil
 import pytest
 
 from rac.errors import RacError
@@ -16,7 +19,17 @@ from rac.load.theory import load_theory, robot_name
 from rac.logic import Atom
 from rac.observe import NodeSample, Verdict
 from rac.pipeline import compile_model
-from rac.runtime.demo import DemoNode, parse_demo_fault, start_body
+from rac.runtime.demo import (
+    AfterRuntime,
+    DemoNode,
+    FaultClock,
+    due_trips,
+    fault_text,
+    is_observer_host,
+    observer_host_started,
+    parse_demo_fault,
+    start_body,
+)
 from rac.runtime.diagnoser import Diagnoser
 from rac.runtime.host import ObserverHost
 from rac.runtime.procs import ProcessProbe
@@ -102,6 +115,56 @@ def test_demo_faults_hit_only_the_process_running_at_their_time() -> None:
     with pytest.raises(RacError) as err:
         parse_demo_fault("trip@5:imu", model)
     assert err.value.diagnostics[0].code == "RAC113"
+
+
+def test_demo_faults_at_plus_t_count_from_when_the_runtime_is_seen() -> None:
+    # crash@30 fired before a slow machine had the runtime up; crash@+30 waits for it.
+    model = load_model(TEDUSAR)
+    crash = parse_demo_fault("crash@+30:jaguar_node", model)
+    assert isinstance(crash, AfterRuntime) and fault_text(crash) == "crash@+30:jaguar_node"
+    seen: list[float | None] = [None]
+    clock = FaultClock(0.0, lambda: seen[0])
+    node = DemoNode(model, "jaguar_node", epoch=0.0, started=1.0, faults=[crash], clock=clock)
+    assert not node.crashed(40.0)  # no runtime yet: 30 s after the epoch means nothing
+    seen[0] = 100.0  # the observer host started at 100
+    node.clock._next_look = 0.0  # looked for again at once
+    assert not node.crashed(129.0) and node.crashed(130.5)
+    restarted = DemoNode(
+        model, "jaguar_node", epoch=0.0, started=135.0, faults=[crash], clock=clock
+    )
+    assert not restarted.crashed(140.0)  # the node the repair engine started is healthy
+    trip = parse_demo_fault("trip@+5:jaguar", model)
+    absolute = parse_demo_fault("trip@50:jaguar", model)
+    pending = [trip, absolute]
+    assert due_trips(pending, clock, 104.0) == [absolute] and pending == [trip]
+    assert due_trips(pending, clock, 105.0) == [trip] and not pending
+    with pytest.raises(RacError) as err:
+        parse_demo_fault("slip@+5:/odom", model)
+    assert err.value.diagnostics[0].code == "RAC113"
+
+
+def test_the_runtime_is_seen_by_its_observer_hosts_process(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    assert is_observer_host(["/usr/bin/python3", "/opt/bin/racc", "observe", "o.yaml"])
+    assert is_observer_host(["python", "-m", "rac", "observe", "o.yaml"])
+    assert is_observer_host(["observe", "o.yaml", "--ros-args", "-r", "__node:=racc_observer_b"])
+    assert not is_observer_host(["racc", "engine", "model.yaml", "__name:=racc_engine"])
+    uri = f"http://127.0.0.1:1/{tmp_path.name}"  # a graph of this test alone
+    monkeypatch.setenv("ROS_MASTER_URI", uri)
+    assert observer_host_started() is None
+    host = [sys.executable, "-c", "import time; time.sleep(30)", "__name:=racc_observer"]
+    other = subprocess.Popen(host, env={**os.environ, "ROS_MASTER_URI": uri + "x"})
+    ours = subprocess.Popen(host)
+    try:
+        deadline = time.time() + 10
+        while observer_host_started() is None and time.time() < deadline:
+            time.sleep(0.1)
+        assert observer_host_started() == psutil.Process(ours.pid).create_time()
+    finally:
+        for proc in (ours, other):
+            proc.kill()
+            proc.wait()
 
 
 def test_demo_body_outlives_ctrl_c_quietly_and_ends_with_its_stdin() -> None:

