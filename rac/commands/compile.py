@@ -86,9 +86,13 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _compile(args: argparse.Namespace) -> int:
+    from rac.commands.diagram import compile_undetected
+
     compiled = load_and_compile(args.model, quiet=args.quiet)
     options = EmitOptions(
-        observers_package=args.ros_package, model_server_package=args.model_server_package
+        observers_package=args.ros_package,
+        model_server_package=args.model_server_package,
+        undetected=compile_undetected(compiled, args.quiet),
     )
     files: dict[str, str | bytes] = dict(emit_all(compiled, options))
     if not args.no_svg:

@@ -296,6 +296,16 @@ def check_focus(compiled: Compiled, name: str) -> None:
     )
 
 
+def compile_undetected(
+    compiled: Compiled, quiet: bool
+) -> tuple[tuple[str, tuple[str, ...]], ...] | None:
+    """What ``racc compile`` marks on architecture.dot: the faults no observer detects, up to
+    ANALYSIS_UP_TO_NODES nodes (the summary above them has no place for the marks)."""
+    if len(compiled.model.nodes) > ANALYSIS_UP_TO_NODES:
+        return None
+    return _undetected(theory_of(compiled), quiet)
+
+
 def _undetected(theory: Theory, quiet: bool) -> tuple[tuple[str, tuple[str, ...]], ...]:
     from rac.analysis.analyze import undetected
     from rac.analysis.modes import MODES
