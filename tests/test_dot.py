@@ -94,7 +94,8 @@ def text_of(label: str) -> list[str]:
     """The lines of a label, plain or HTML-like, without markup."""
     if label.startswith("<") and label.endswith(">"):
         body = label[1:-1]
-        return [html.unescape(re.sub(r"<[^>]+>", "", part)) for part in re.split(r"<BR/>", body)]
+        lines = [html.unescape(re.sub(r"<[^>]+>", "", part)) for part in re.split(r"<BR/>", body)]
+        return [line for line in lines if line.strip()]  # not the gap under a node's name
     return label.split("\\n")
 
 
@@ -673,3 +674,10 @@ def test_view_goldens(name: str, update_goldens: bool) -> None:
         view_options["health"] = Health(title, diagnoses, options.get("observed", ()))  # type: ignore[arg-type]
     text = emit_diagram(compiled.model, compiled.observers, View(**view_options))  # type: ignore[arg-type]
     assert_golden(GOLDEN / f"{name}.dot", text, update_goldens)
+
+
+@pytest.mark.parametrize("name", sorted(VIEWS))
+def test_every_view_renders_without_a_graphviz_warning(name: str) -> None:
+    """A legend cell too small for its symbol, say, is a warning Graphviz prints and a
+    clipped symbol in the picture."""
+    render_svg((GOLDEN / f"{name}.dot").read_text("utf-8"))

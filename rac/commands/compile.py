@@ -56,6 +56,12 @@ def register(sub: Any) -> None:
         f"(default with --ros-package: {DEFAULT_MODEL_SERVER_PACKAGE})",
     )
     parser.add_argument("--no-svg", action="store_true", help="do not render architecture.svg")
+    parser.add_argument(
+        "--html",
+        action="store_true",
+        help="also write architecture.html, the SVG with pan, zoom, search and tooltips, "
+        "self-contained (needs Graphviz; default: off)",
+    )
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     parser.set_defaults(run=run)
 
@@ -102,6 +108,11 @@ def _compile(args: argparse.Namespace) -> int:
                 print(SVG_NOTE, file=sys.stderr)
         else:
             files["architecture.svg"] = svg
+            if args.html:
+                from rac.targets.html import emit_html
+
+                title = f"robot {compiled.model.name.value}"
+                files["architecture.html"] = emit_html(svg.decode("utf-8"), title)
     if len(compiled.model.nodes) > SUMMARY_ABOVE_NODES and not args.quiet:
         print(
             f"note: {len(compiled.model.nodes):,} nodes (over {SUMMARY_ABOVE_NODES}): "
@@ -110,7 +121,7 @@ def _compile(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     out = Path(args.output)
-    owned = [t.filename for t in targets()] + ["architecture.svg"]
+    owned = [t.filename for t in targets()] + ["architecture.svg", "architecture.html"]
     write_files_atomically(out, files, owned)
     if not args.quiet:
         model = compiled.model

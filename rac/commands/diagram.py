@@ -29,6 +29,8 @@ if TYPE_CHECKING:
 
 # What Graphviz writes for each suffix; .dot and .gv are the DOT text itself.
 FORMATS = {".svg": "svg", ".png": "png", ".pdf": "pdf", ".jpg": "jpg", ".jpeg": "jpg"}
+# The self-contained page (rac.targets.html): Graphviz's SVG with racc's pan/zoom/search.
+HTML_SUFFIXES = (".html", ".htm")
 DOT_SUFFIXES = (".dot", ".gv")
 # The coverage analysis costs one propagation per fault and mode: 0.05 s at 30 nodes, 5 s
 # at 300, 80 s at 1,000 (docs/diagrams.md).  Above this many nodes it runs only when asked.
@@ -47,11 +49,13 @@ def register(sub: Any) -> None:
         "shown only when observed, what watches each node and topic, and the components "
         "whose faults no observer detects (the analysis of racc analyze) outlined in red.  "
         "--diagnosis, --obs or --live colour a diagnosis on the drawing.  The suffix of "
-        "FILE picks the format: .dot (no Graphviz needed), .svg, .png, .pdf.  Without -o the "
+        "FILE picks the format: .dot (no Graphviz needed), .svg, .png, .pdf, or .html (the "
+        "SVG with pan, zoom, search and tooltips; opens without a network).  Without -o the "
         "DOT text goes to standard output.  See docs/diagrams.md.",
         "  racc diagram models/tedusar.ram -o tedusar.svg\n"
         "  racc diagram models/warehouse.ram --focus /robot_41/localization/amcl --depth 1 "
         "-o amcl.svg\n"
+        "  racc diagram models/warehouse.ram -o warehouse.html\n"
         "  racc diagram models/tedusar.ram --diagnosis jaguar_node -o fault.svg\n"
         "  racc diagram models/tedusar.ram --obs 'not ok(pose)' --obs 'running(jaguar_node)' "
         "-o fault.png\n"
@@ -62,7 +66,7 @@ def register(sub: Any) -> None:
         "-o",
         "--output",
         metavar="FILE",
-        help="the file to write; its suffix picks the format: .dot, .svg, .png, .pdf "
+        help="the file to write; its suffix picks the format: .dot, .svg, .png, .pdf, .html "
         "(default: DOT on standard output)",
     )
     parser.add_argument(
@@ -188,7 +192,7 @@ def run(args: argparse.Namespace) -> int:
         health=health,
     )
     text = emit_diagram(model, compiled.observers, view)
-    write_diagram(args.output, text, suffix)
+    write_diagram(args.output, text, suffix, f"robot {model.name.value}")
     if not args.quiet and args.output:
         took = time.perf_counter() - started
         print(f"wrote {args.output} ({count(len(model.nodes), 'node')}, {took:.2f} s)")
@@ -201,8 +205,8 @@ def check_suffix(output: str | None) -> str:
     if output is None:
         return ".dot"
     suffix = Path(output).suffix.lower()
-    if suffix not in DOT_SUFFIXES and suffix not in FORMATS:
-        known = ", ".join([*DOT_SUFFIXES, *FORMATS])
+    if suffix not in DOT_SUFFIXES and suffix not in FORMATS and suffix not in HTML_SUFFIXES:
+        known = ", ".join([*DOT_SUFFIXES, *FORMATS, *HTML_SUFFIXES])
         raise RacError(
             [
                 Diagnostic(
@@ -215,12 +219,19 @@ def check_suffix(output: str | None) -> str:
     return suffix
 
 
-def write_diagram(output: str | None, text: str, suffix: str) -> None:
-    """``text`` (DOT) to ``output``, rendered by Graphviz unless the suffix is .dot/.gv."""
+def write_diagram(output: str | None, text: str, suffix: str, title: str = "architecture") -> None:
+    """``text`` (DOT) to ``output``, rendered by Graphviz unless the suffix is .dot/.gv; an
+    .html page is the SVG in racc's viewer, titled ``title``."""
     if output is None:
         return
     if suffix in DOT_SUFFIXES:
         write_file_atomically(Path(output), text)
+        return
+    if suffix in HTML_SUFFIXES:
+        from rac.targets.html import emit_html
+
+        svg = render(text, "svg", output).decode("utf-8")
+        write_file_atomically(Path(output), emit_html(svg, title))
         return
     write_file_atomically(Path(output), render(text, FORMATS[suffix], output))
 

@@ -67,6 +67,8 @@ COMPACT_FROM_CLUSTERS = 2
 # The summary draws at most this many arrows per namespace box, the heaviest flows.
 SUMMARY_ARROWS_PER_BOX = 2
 
+NAME_GAP = '<BR/><FONT POINT-SIZE="3"> </FONT><BR/>'
+
 _DOT_SPECIAL = re.compile(r'[\\"\r\n]')
 
 COLOURS = {
@@ -514,7 +516,9 @@ def _label(name: str, lines: list[str], warn: str, dark: bool) -> str:
     if warn:
         colour = "#ffcdd2" if dark else COLOURS["undetected"]
         body.append(f'<FONT POINT-SIZE="8" COLOR="{colour}">{html_text(warn)}</FONT>')
-    return "<" + "<BR/>".join(body) + ">"
+    # Graphviz spaces the lines by its own font metrics, tighter than the fonts a browser or
+    # its rasteriser uses: a thin empty line keeps the name's underscores off the digits.
+    return "<" + body[0] + NAME_GAP + "<BR/>".join(body[1:]) + ">"
 
 
 def _topic_line(name: str, topic: Topic | None, prefix: str, watch_list: list[Watch]) -> str:
@@ -796,12 +800,12 @@ LEGEND: dict[str, tuple[str, str]] = {
         "suspect (some diagnosis)",
     ),
     "bad": (
-        f'<TD BORDER="2" STYLE="rounded" COLOR="{COLOURS["bad"]}" WIDTH="40" HEIGHT="16" '
+        f'<TD BORDER="2" STYLE="rounded" COLOR="{COLOURS["bad"]}" WIDTH="40" HEIGHT="20" '
         'FIXEDSIZE="TRUE">c</TD>',
         "an observer of it reads bad",
     ),
     "good": (
-        f'<TD BORDER="2" STYLE="rounded" COLOR="{COLOURS["good"]}" WIDTH="40" HEIGHT="16" '
+        f'<TD BORDER="2" STYLE="rounded" COLOR="{COLOURS["good"]}" WIDTH="40" HEIGHT="20" '
         'FIXEDSIZE="TRUE">c</TD>',
         "its observers read good",
     ),
