@@ -16,7 +16,12 @@ from goldens import assert_golden
 
 from rac.analysis.analyze import undetected
 from rac.analysis.modes import MODES
-from rac.commands.diagram import replay_health, theory_of
+from rac.commands.diagram import (
+    COMPILE_ANALYSIS_UP_TO_NODES,
+    compile_undetected,
+    replay_health,
+    theory_of,
+)
 from rac.ir import (
     FieldRef,
     Hardware,
@@ -397,6 +402,13 @@ def test_compile_marks_the_faults_no_observer_detects(tedusar: Model) -> None:
     text = emit_dot(compiled, EmitOptions(undetected=tuple(sorted(missed.items()))))
     assert text_of(all_nodes(parse(text))['"hector_mapping"']["label"])[-1] == "unseen: output"
     assert "not analysed" not in caption(text)
+
+
+def test_compile_analyses_up_to_its_node_bound(tedusar: Model) -> None:
+    assert compile_undetected(compile_model(tedusar), quiet=True) is not None
+    larger = compile_model(big_model(COMPILE_ANALYSIS_UP_TO_NODES + 1))
+    assert compile_undetected(larger, quiet=True) is None
+    assert "not analysed" in caption(emit_dot(larger, EmitOptions()))
 
 
 def test_undetected_faults_stand_out(tedusar: Model) -> None:

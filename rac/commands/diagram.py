@@ -35,6 +35,10 @@ DOT_SUFFIXES = (".dot", ".gv")
 # The coverage analysis costs one propagation per fault and mode: 0.05 s at 30 nodes, 5 s
 # at 300, 80 s at 1,000 (docs/diagrams.md).  Above this many nodes it runs only when asked.
 ANALYSIS_UP_TO_NODES = 300
+# racc compile marks them on architecture.dot up to this many nodes: the analysis took 0.3 s
+# of CPU at 100 nodes and 3 s at 300 (bench/compile.py's generator), which would have
+# multiplied a 300-node compile's time by four.  Above it the caption says "not analysed".
+COMPILE_ANALYSIS_UP_TO_NODES = 100
 RENDER_TIMEOUT_S = 300
 
 
@@ -311,8 +315,8 @@ def compile_undetected(
     compiled: Compiled, quiet: bool
 ) -> tuple[tuple[str, tuple[str, ...]], ...] | None:
     """What ``racc compile`` marks on architecture.dot: the faults no observer detects, up to
-    ANALYSIS_UP_TO_NODES nodes (the summary above them has no place for the marks)."""
-    if len(compiled.model.nodes) > ANALYSIS_UP_TO_NODES:
+    COMPILE_ANALYSIS_UP_TO_NODES nodes."""
+    if len(compiled.model.nodes) > COMPILE_ANALYSIS_UP_TO_NODES:
         return None
     return _undetected(theory_of(compiled), quiet)
 
