@@ -411,6 +411,22 @@ def test_compile_analyses_up_to_its_node_bound(tedusar: Model) -> None:
     assert "not analysed" in caption(emit_dot(larger, EmitOptions()))
 
 
+def test_the_unseen_line_reads_on_a_dark_node_in_a_diagnosis_view(tedusar: Model) -> None:
+    """jaguar_node (SN, dark grey) keeps white-ish text when a diagnosis is drawn that does
+    not name it; filled orange as a suspect, its text turns black and the line red."""
+    compiled = compile_model(tedusar)
+    unseen = (("jaguar_node", ("output",)),)
+    for diagnoses, colour in (
+        ((("hokuyo",),), "#ffcdd2"),
+        ((("jaguar_node",), ("jaguar",)), "#c62828"),
+    ):
+        view = View(undetected=unseen, health=Health("d", diagnoses))
+        label = all_nodes(parse(emit_diagram(compiled.model, compiled.observers, view)))[
+            '"jaguar_node"'
+        ]["label"]
+        assert f'<FONT POINT-SIZE="8" COLOR="{colour}">unseen: output</FONT>' in label
+
+
 def test_undetected_faults_stand_out(tedusar: Model) -> None:
     compiled = compile_model(tedusar)
     missed = undetected(theory_of(compiled), MODES)

@@ -438,8 +438,16 @@ def _node_item(
     if name == marking.focus:
         attrs += f', penwidth=3, color="{COLOURS["focus"]}"'
     shown = name[len(cluster) + 1 :] if cluster else _short(name, scene.prefix)
-    label = _label(shown, lines, warn, dark=kind == "sn" and marking.health is None)
+    label = _label(shown, lines, warn, dark=_dark_fill(name, kind, marking.health))
     return _Item(name, attrs, label, "\n".join(tip), cluster)
+
+
+def _dark_fill(name: str, kind: str, health: Marks | None) -> bool:
+    """Whether the node's fill is dark (white text): an SN's grey, or a faulty one's red,
+    unless a diagnosis fills it orange (black text)."""
+    if health is not None and name in health.suspect:
+        return False
+    return kind == "sn" or (health is not None and name in health.faulty)
 
 
 def _details(node: Node, folded: int) -> list[str]:
