@@ -109,11 +109,14 @@ def test_a_real_browser_searches_and_shows_a_tooltip(tmp_path: Path) -> None:
     ready = re.search(r'data-racc-view="ready (\d+)"', dom)
     assert ready is not None, "the page's script did not run to its end"
     assert int(ready.group(1)) > 31 + 8  # the nodes, devices, topic boxes and arrows
-    # search: the node and the topic box /robot_41/amcl_pose match, the rest is dimmed
-    assert '<span id="count">2 matches</span>' in dom
+    # search: the node, the topic box /robot_41/amcl_pose and the arrows to and from them
+    # match, the rest is dimmed
     assert re.search(r'<svg [^>]*class="searching"', dom)
     hits = re.findall(r'<g id="node\d+" class="node hit" data-name="([^"]+)"', dom)
     assert sorted(hits) == ["/robot_41/amcl_pose", AMCL]
+    arrows = re.findall(r'<g id="edge\d+" class="edge hit" data-name="([^"]+)"', dom)
+    assert "/robot_41/localization/map_server → /robot_41/localization/amcl" in arrows
+    assert f'<span id="count">{len(hits) + len(arrows)} matches</span>' in dom
     # the tooltip: the component's observers
     tip = re.search(
         r'<div id="tip" role="tooltip" data-for="([^"]+)" style="([^"]*)">(.*?)</div>', dom, re.S
@@ -129,6 +132,14 @@ def test_a_real_browser_searches_and_shows_a_tooltip(tmp_path: Path) -> None:
 
 @pytest.mark.skipif(not HAVE_DOT, reason="Graphviz dot is not installed")
 @pytest.mark.skipif(CHROMIUM is None, reason="chromium is not installed (.ci/run installs it)")
-def test_a_search_that_matches_nothing_says_so(tmp_path: Path) -> None:
-    dom = browser_dom(written_page(tmp_path), "#search=no_such_thing", tmp_path)
-    assert '<span id="count">0 matches</span>' in dom and "node hit" not in dom
+def test_a_topic_on_an_arrow_is_found_and_nothing_says_so(tmp_path: Path) -> None:
+    page = written_page(tmp_path)
+    dom = browser_dom(page, "#search=cmd_vel_smoothed", tmp_path)
+    arrows = re.findall(r'<g id="edge\d+" class="edge hit" data-name="([^"]+)"', dom)
+    assert arrows == [
+        "/robot_41/navigation/velocity_smoother → /robot_41/navigation/collision_monitor"
+    ]
+    assert '<span id="count">1 match</span>' in dom
+    dom = browser_dom(page, "#search=no_such_thing", tmp_path)
+    assert '<span id="count">0 matches</span>' in dom
+    assert not re.search(r'class="(node|edge) hit"', dom)
