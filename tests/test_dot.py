@@ -15,8 +15,12 @@ import pytest
 from goldens import assert_golden
 
 from rac.analysis.analyze import undetected
-from rac.commands.diagram import theory_of
-from rac.commands.reports import replay_health
+from rac.commands.reports import (
+    COMPILE_ANALYSIS_UP_TO_NODES,
+    compile_undetected,
+    replay_health,
+    theory_of,
+)
 from rac.diagnosis.modes import MODES
 from rac.ir import (
     FieldRef,
@@ -95,7 +99,8 @@ def text_of(label: str) -> list[str]:
     """The lines of a label, plain or HTML-like, without markup."""
     if label.startswith("<") and label.endswith(">"):
         body = label[1:-1]
-        return [html.unescape(re.sub(r"<[^>]+>", "", part)) for part in re.split(r"<BR/>", body)]
+        lines = [html.unescape(re.sub(r"<[^>]+>", "", part)) for part in re.split(r"<BR/>", body)]
+        return [line for line in lines if line.strip()]  # not the gap under a node's name
     return label.split("\\n")
 
 
@@ -342,7 +347,9 @@ def test_nodes_are_clustered_by_namespace_below_the_shared_prefix(warehouse: Mod
     assert '"/robot_41/drivers/plc_bridge"' in members and '"plc"' in members
     nodes = all_nodes(graph)
     plc = text_of(nodes['"/robot_41/drivers/plc_bridge"']["label"])
-    assert plc[0] == "plc_bridge" and plc[-1] == "+91 topics"  # 90 I/O, /rosout
+    # one line of details in the compact drawing: limits and the folded count (90 I/O, /rosout)
+    assert plc == ["plc_bridge", "15 % · 128 MB · +91"]
+    assert "reports base" in nodes['"/robot_41/drivers/can_driver"']["tooltip"]
     assert "names under /robot_41/ are drawn without it" in caption(text)
 
 
@@ -358,6 +365,66 @@ def test_the_warehouse_is_readable_size(warehouse: Model) -> None:
         < 45
     )
     assert len(graph.get_edges()) < 80
+
+
+def graph_attrs(text: str) -> dict[str, str]:
+    return attrs(parse(text).get_node("graph")[0])
+
+
+def test_namespaces_make_the_drawing_compact(tedusar: Model, warehouse: Model) -> None:
+    """Several namespace clusters: top-down, rounded boxes, one line of details; a robot
+    without namespaces keeps Figure 3.1's left-to-right ellipses, and so does --all."""
+    compact = emit(warehouse)
+    assert graph_attrs(compact)["rankdir"] == "TB" and graph_attrs(compact)["newrank"] == "true"
+    assert 'node [shape=box, style="rounded,filled"' in compact
+    assert "a node's cpu and memory limits" in legend_texts(compact)
+    for text in (emit(tedusar), view_of(warehouse, everything=True)):
+        assert graph_attrs(text)["rankdir"] == "LR"
+        assert "node [shape=ellipse" in text
+        assert "a node's cpu and memory limits" not in legend_texts(text)
+
+
+def test_the_whole_warehouse_fits_a_1920_by_1080_screen_readably(warehouse: Model) -> None:
+    """Shrunk to fit 1920 × 1080 px (96 dpi), node names (11 pt) stay at least 10 px high
+    and topic names (9 pt) 8 px: before the compact layout they came out at 7 and 6 px."""
+    svg = render_svg(emit(warehouse))
+    width, height = (
+        float(v) for v in re.findall(r'viewBox="0\.00 0\.00 ([\d.]+) ([\d.]+)"', svg)[0]
+    )
+    scale = min(1920 / (width * 96 / 72), 1080 / (height * 96 / 72))
+    assert 11 * 96 / 72 * scale >= 10, (width, height)
+    assert 9 * 96 / 72 * scale >= 8, (width, height)
+
+
+def test_compile_marks_the_faults_no_observer_detects(tedusar: Model) -> None:
+    compiled = compile_model(tedusar)
+    missed = undetected(theory_of(compiled), MODES)
+    text = emit_dot(compiled, EmitOptions(undetected=tuple(sorted(missed.items()))))
+    assert text_of(all_nodes(parse(text))['"hector_mapping"']["label"])[-1] == "unseen: output"
+    assert "not analysed" not in caption(text)
+
+
+def test_compile_analyses_up_to_its_node_bound(tedusar: Model) -> None:
+    assert compile_undetected(compile_model(tedusar), quiet=True) is not None
+    larger = compile_model(big_model(COMPILE_ANALYSIS_UP_TO_NODES + 1))
+    assert compile_undetected(larger, quiet=True) is None
+    assert "not analysed" in caption(emit_dot(larger, EmitOptions()))
+
+
+def test_the_unseen_line_reads_on_a_dark_node_in_a_diagnosis_view(tedusar: Model) -> None:
+    """jaguar_node (SN, dark grey) keeps white-ish text when a diagnosis is drawn that does
+    not name it; filled orange as a suspect, its text turns black and the line red."""
+    compiled = compile_model(tedusar)
+    unseen = (("jaguar_node", ("output",)),)
+    for diagnoses, colour in (
+        ((("hokuyo",),), "#ffcdd2"),
+        ((("jaguar_node",), ("jaguar",)), "#c62828"),
+    ):
+        view = View(undetected=unseen, health=Health("d", diagnoses))
+        label = all_nodes(parse(emit_diagram(compiled.model, compiled.observers, view)))[
+            '"jaguar_node"'
+        ]["label"]
+        assert f'<FONT POINT-SIZE="8" COLOR="{colour}">unseen: output</FONT>' in label
 
 
 def test_undetected_faults_stand_out(tedusar: Model) -> None:
@@ -635,3 +702,10 @@ def test_view_goldens(name: str, update_goldens: bool) -> None:
         view_options["health"] = Health(title, diagnoses, options.get("observed", ()))  # type: ignore[arg-type]
     text = emit_diagram(compiled.model, compiled.observers, View(**view_options))  # type: ignore[arg-type]
     assert_golden(GOLDEN / f"{name}.dot", text, update_goldens)
+
+
+@pytest.mark.parametrize("name", sorted(VIEWS))
+def test_every_view_renders_without_a_graphviz_warning(name: str) -> None:
+    """A legend cell too small for its symbol, say, is a warning Graphviz prints and a
+    clipped symbol in the picture."""
+    render_svg((GOLDEN / f"{name}.dot").read_text("utf-8"))

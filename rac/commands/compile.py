@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from rac.commands.common import add_command, count, load_and_compile
+from rac.commands.reports import compile_undetected
 from rac.load.drawing import run_dot
 from rac.load.output import write_files_atomically
 from rac.perf import paused_gc
@@ -58,6 +59,12 @@ def register(sub: Any) -> None:
         f"(default with --ros-package: {DEFAULT_MODEL_SERVER_PACKAGE})",
     )
     parser.add_argument("--no-svg", action="store_true", help="do not render architecture.svg")
+    parser.add_argument(
+        "--html",
+        action="store_true",
+        help="also write architecture.html, the SVG with pan, zoom, search and tooltips, "
+        "self-contained (needs Graphviz; default: off)",
+    )
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     parser.set_defaults(run=run)
 
@@ -88,7 +95,9 @@ def run(args: argparse.Namespace) -> int:
 def _compile(args: argparse.Namespace) -> int:
     compiled = load_and_compile(args.model, quiet=args.quiet)
     options = EmitOptions(
-        observers_package=args.ros_package, model_server_package=args.model_server_package
+        observers_package=args.ros_package,
+        model_server_package=args.model_server_package,
+        undetected=compile_undetected(compiled, args.quiet),
     )
     files: dict[str, str | bytes] = dict(emit_all(compiled, options))
     if not args.no_svg:
@@ -98,6 +107,11 @@ def _compile(args: argparse.Namespace) -> int:
                 print(SVG_NOTE, file=sys.stderr)
         else:
             files["architecture.svg"] = svg
+            if args.html:
+                from rac.targets.html import emit_html
+
+                title = f"robot {compiled.model.name.value}"
+                files["architecture.html"] = emit_html(svg.decode("utf-8"), title)
     if len(compiled.model.nodes) > SUMMARY_ABOVE_NODES and not args.quiet:
         print(
             f"note: {len(compiled.model.nodes):,} nodes (over {SUMMARY_ABOVE_NODES}): "
@@ -106,7 +120,7 @@ def _compile(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     out = Path(args.output)
-    owned = [t.filename for t in targets()] + ["architecture.svg"]
+    owned = [t.filename for t in targets()] + ["architecture.svg", "architecture.html"]
     write_files_atomically(out, files, owned)
     if not args.quiet:
         model = compiled.model

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 from rac.commands.common import add_command, count, load_and_compile
 from rac.commands.options import add_max_card_option, add_observation_options
-from rac.commands.reports import diagnosis_title
+from rac.commands.reports import diagnosis_title, theory_of, undetected_faults
 from rac.errors import Diagnostic, RacError
 from rac.load.drawing import (
     check_suffix,
@@ -44,11 +44,13 @@ def register(sub: Any) -> None:
         "shown only when observed, what watches each node and topic, and the components "
         "whose faults no observer detects (the analysis of racc analyze) outlined in red.  "
         "--diagnosis, --obs or --live colour a diagnosis on the drawing.  The suffix of "
-        "FILE picks the format: .dot (no Graphviz needed), .svg, .png, .pdf.  Without -o the "
+        "FILE picks the format: .dot (no Graphviz needed), .svg, .png, .pdf, or .html (the "
+        "SVG with pan, zoom, search and tooltips; opens without a network).  Without -o the "
         "DOT text goes to standard output.  See docs/diagrams.md.",
         "  racc diagram models/tedusar.ram -o tedusar.svg\n"
         "  racc diagram models/warehouse.ram --focus /robot_41/localization/amcl --depth 1 "
         "-o amcl.svg\n"
+        "  racc diagram models/warehouse.ram -o warehouse.html\n"
         "  racc diagram models/tedusar.ram --diagnosis jaguar_node -o fault.svg\n"
         "  racc diagram models/tedusar.ram --obs 'not ok(pose)' --obs 'running(jaguar_node)' "
         "-o fault.png\n"
@@ -59,7 +61,7 @@ def register(sub: Any) -> None:
         "-o",
         "--output",
         metavar="FILE",
-        help="the file to write; its suffix picks the format: .dot, .svg, .png, .pdf "
+        help="the file to write; its suffix picks the format: .dot, .svg, .png, .pdf, .html "
         "(default: DOT on standard output)",
     )
     parser.add_argument(
@@ -141,17 +143,6 @@ def _summary_nodes() -> int:
     return SUMMARY_ABOVE_NODES
 
 
-def theory_of(compiled: Compiled) -> Theory:
-    from rac.diagnosis import Theory
-
-    return Theory(
-        clauses=compiled.rbm,
-        props=compiled.props,
-        components=compiled.components,
-        model=compiled.model,
-    )
-
-
 def run(args: argparse.Namespace) -> int:
     from rac.targets.dot import SUMMARY_ABOVE_NODES, View, emit_diagram
 
@@ -169,7 +160,7 @@ def run(args: argparse.Namespace) -> int:
     if args.analysis == "yes" or (args.analysis == "auto" and not summary):
         drawn = len(model.nodes)
         if args.analysis == "yes" or drawn <= ANALYSIS_UP_TO_NODES or args.focus is not None:
-            undetected = _undetected(theory, quiet=args.quiet)
+            undetected = undetected_faults(theory, quiet=args.quiet)
     view = View(
         everything=args.everything,
         focus=args.focus,
@@ -179,7 +170,7 @@ def run(args: argparse.Namespace) -> int:
         health=health,
     )
     text = emit_diagram(model, compiled.observers, view)
-    write_diagram(args.output, text, suffix)
+    write_diagram(args.output, text, suffix, f"robot {model.name.value}")
     if not args.quiet and args.output:
         took = time.perf_counter() - started
         print(f"wrote {args.output} ({count(len(model.nodes), 'node')}, {took:.2f} s)")
@@ -207,18 +198,6 @@ def check_focus(compiled: Compiled, name: str) -> None:
             )
         ]
     )
-
-
-def _undetected(theory: Theory, quiet: bool) -> tuple[tuple[str, tuple[str, ...]], ...]:
-    from rac.analysis.analyze import undetected
-    from rac.diagnosis.modes import MODES
-
-    if not quiet and sys.stderr.isatty():
-        print("analysing which faults the observers detect…", end="\r", file=sys.stderr)
-    found = undetected(theory, MODES)
-    if not quiet and sys.stderr.isatty():
-        print(" " * 50, end="\r", file=sys.stderr)
-    return tuple(sorted(found.items()))
 
 
 def _health(args: argparse.Namespace, compiled: Compiled, theory: Theory) -> Health | None:

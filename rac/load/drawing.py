@@ -1,5 +1,6 @@
-"""Diagram files: DOT text written as it is (.dot, .gv), or drawn by Graphviz's ``dot`` into
-an image (.svg, .png, .pdf, .jpg), each written atomically."""
+"""Diagram files: DOT text written as it is (.dot, .gv), drawn by Graphviz's ``dot`` into
+an image (.svg, .png, .pdf, .jpg), or the SVG in racc's self-contained page (.html), each
+written atomically."""
 
 from __future__ import annotations
 
@@ -9,9 +10,12 @@ from pathlib import Path
 
 from rac.errors import Diagnostic, RacError
 from rac.load.output import write_file_atomically
+from rac.targets.html import emit_html
 
 # What Graphviz writes for each suffix; .dot and .gv are the DOT text itself.
 FORMATS = {".svg": "svg", ".png": "png", ".pdf": "pdf", ".jpg": "jpg", ".jpeg": "jpg"}
+# The self-contained page (rac.targets.html): Graphviz's SVG with racc's pan/zoom/search.
+HTML_SUFFIXES = (".html", ".htm")
 DOT_SUFFIXES = (".dot", ".gv")
 
 RENDER_TIMEOUT_S = 300
@@ -21,8 +25,8 @@ def check_suffix(output: str | None) -> str:
     if output is None:
         return ".dot"
     suffix = Path(output).suffix.lower()
-    if suffix not in DOT_SUFFIXES and suffix not in FORMATS:
-        known = ", ".join([*DOT_SUFFIXES, *FORMATS])
+    if suffix not in DOT_SUFFIXES and suffix not in FORMATS and suffix not in HTML_SUFFIXES:
+        known = ", ".join([*DOT_SUFFIXES, *FORMATS, *HTML_SUFFIXES])
         raise RacError(
             [
                 Diagnostic(
@@ -35,12 +39,17 @@ def check_suffix(output: str | None) -> str:
     return suffix
 
 
-def write_diagram(output: str | None, text: str, suffix: str) -> None:
-    """``text`` (DOT) to ``output``, rendered by Graphviz unless the suffix is .dot/.gv."""
+def write_diagram(output: str | None, text: str, suffix: str, title: str = "architecture") -> None:
+    """``text`` (DOT) to ``output``, rendered by Graphviz unless the suffix is .dot/.gv; an
+    .html page is the SVG in racc's viewer, titled ``title``."""
     if output is None:
         return
     if suffix in DOT_SUFFIXES:
         write_file_atomically(Path(output), text)
+        return
+    if suffix in HTML_SUFFIXES:
+        svg = render(text, "svg", output).decode("utf-8")
+        write_file_atomically(Path(output), emit_html(svg, title))
         return
     write_file_atomically(Path(output), render(text, FORMATS[suffix], output))
 

@@ -27,7 +27,7 @@ import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 
-from rac.fmt import format_limits, format_number
+from rac.fmt import format_limits, format_mem, format_number
 from rac.ir import Model, Node, Topic
 from rac.passes.observers import ObserverSpec
 from rac.pipeline import Compiled
@@ -58,8 +58,16 @@ SUMMARY_ABOVE_NODES = 300
 # dot's classic ranking of many clusters fails ("trouble in init_rank": a 300-node robot in
 # 37 namespaces) or takes long; newrank does not, at the price of a wider drawing of a few.
 NEWRANK_ABOVE_CLUSTERS = 12
+# A drawing of two or more namespaces is compact (docs/diagrams.md, "Reading it at
+# 1920 × 1080"): top-down, so an arrow's label sits beside it instead of taking a column of
+# its own; nodes are rounded boxes with one line of details, since an ellipse around several
+# lines is twice as wide.  The 31-node warehouse robot went from 2734 × 1324 pt to about
+# 1470 × 1090 pt, its names readable on a 1920 × 1080 screen.
+COMPACT_FROM_CLUSTERS = 2
 # The summary draws at most this many arrows per namespace box, the heaviest flows.
 SUMMARY_ARROWS_PER_BOX = 2
+
+NAME_GAP = '<BR/><FONT POINT-SIZE="3"> </FONT><BR/>'
 
 _DOT_SPECIAL = re.compile(r'[\\"\r\n]')
 
@@ -177,6 +185,7 @@ class _Scene:
     notes: list[str] = field(default_factory=list)  # caption lines (plain text)
     relations: list[str] = field(default_factory=list)  # the related pairs, as written
     prefix: str = ""  # the namespace every drawn node shares, left out of the names
+    compact: bool = False  # top-down, boxes, one line of details (COMPACT_FROM_CLUSTERS)
 
 
 class _Topology:
@@ -231,7 +240,8 @@ def _focus_set(model: Model, top: _Topology, focus: str, depth: int) -> set[str]
 
 def emit_dot(compiled: Compiled, options: EmitOptions) -> str:
     """architecture.dot: the reviewer's view, or the summary above SUMMARY_ABOVE_NODES nodes."""
-    view = View(summary=len(compiled.model.nodes) > SUMMARY_ABOVE_NODES)
+    summary = len(compiled.model.nodes) > SUMMARY_ABOVE_NODES
+    view = View(summary=summary, undetected=options.undetected)
     return emit_diagram(compiled.model, compiled.observers, view)
 
 
@@ -276,6 +286,8 @@ def _detailed(
     prefix = scene.prefix = _common_namespace([n.name.value for n in nodes])
     if prefix:
         scene.notes.append(f"names under {prefix}/ are drawn without it")
+    spaces = {_cluster_of(n.name.value, prefix) for n in nodes}
+    scene.compact = not view.everything and len(spaces - {""}) >= COMPACT_FROM_CLUSTERS
 
     visible, folded = _fold(top, shown, drawn is not None, watched, view.everything, scene)
     marking = _Marking(watched, undetected, health, view.focus)
@@ -415,6 +427,31 @@ def _node_item(
     """A node: its name, limits, reports and folded count; its observers in the tooltip."""
     scene.legend[kind] = None
     name = node.name.value
+    lines = _compact_details(node, folded, scene) if scene.compact else _details(node, folded)
+    tip = [f"{name}: {CLASS_NAMES[kind]}"]
+    if node.drives:
+        tip.append("drives " + ", ".join(h.value for h in node.drives))
+    if node.diagnostics:
+        tip.append("reports " + ", ".join(d.value for d in node.diagnostics))
+    tip += _watch_lines(marking.watched.get(name, []))
+    attrs, warn = _marked(name, STYLE[kind], marking, scene, tip)
+    if name == marking.focus:
+        attrs += f', penwidth=3, color="{COLOURS["focus"]}"'
+    shown = name[len(cluster) + 1 :] if cluster else _short(name, scene.prefix)
+    label = _label(shown, lines, warn, dark=_dark_fill(name, kind, marking.health))
+    return _Item(name, attrs, label, "\n".join(tip), cluster)
+
+
+def _dark_fill(name: str, kind: str, health: Marks | None) -> bool:
+    """Whether the node's fill is dark (white text): an SN's grey, or a faulty one's red,
+    unless a diagnosis fills it orange (black text)."""
+    if health is not None and name in health.suspect:
+        return False
+    return kind == "sn" or (health is not None and name in health.faulty)
+
+
+def _details(node: Node, folded: int) -> list[str]:
+    """The lines under a node's name: its limits, reports and folded topics."""
     lines = []
     limits = format_limits(node.limits)
     if limits:
@@ -423,16 +460,22 @@ def _node_item(
         lines.append("reports " + ", ".join(d.value for d in node.diagnostics))
     if folded:
         lines.append(f"+{folded} topic{'s' if folded != 1 else ''}")
-    tip = [f"{name}: {CLASS_NAMES[kind]}"]
-    if node.drives:
-        tip.append("drives " + ", ".join(h.value for h in node.drives))
-    tip += _watch_lines(marking.watched.get(name, []))
-    attrs, warn = _marked(name, STYLE[kind], marking, scene, tip)
-    if name == marking.focus:
-        attrs += f', penwidth=3, color="{COLOURS["focus"]}"'
-    shown = name[len(cluster) + 1 :] if cluster else _short(name, scene.prefix)
-    label = _label(shown, lines, warn, dark=kind == "sn" and marking.health is None)
-    return _Item(name, attrs, label, "\n".join(tip), cluster)
+    return lines
+
+
+def _compact_details(node: Node, folded: int, scene: _Scene) -> list[str]:
+    """One line, ``10 % · 64 MB · +2``: the legend says what each part is; the reports
+    are in the tooltip."""
+    parts = []
+    if node.limits.cpu is not None:
+        parts.append(f"{format_number(node.limits.cpu)} %")
+    if node.limits.mem is not None:
+        parts.append(format_mem(node.limits.mem))
+    if folded:
+        parts.append(f"+{folded}")
+    if parts:
+        scene.legend["details"] = None
+    return [" · ".join(parts)] if parts else []
 
 
 def _watch_lines(watch_list: list[Watch]) -> list[str]:
@@ -447,7 +490,8 @@ def _marked(
     health = marking.health
     modes = marking.undetected.get(name)
     if modes:
-        attrs += f', style="filled,dashed", penwidth=2, color="{COLOURS["undetected"]}"'
+        style = "rounded,filled,dashed" if scene.compact else "filled,dashed"
+        attrs += f', style="{style}", penwidth=2, color="{COLOURS["undetected"]}"'
         warn = "unseen: " + ", ".join(modes)
         tip.append(f"no observer detects its faults in mode {', '.join(modes)} (racc analyze)")
         scene.legend["undetected"] = None
@@ -480,7 +524,9 @@ def _label(name: str, lines: list[str], warn: str, dark: bool) -> str:
     if warn:
         colour = "#ffcdd2" if dark else COLOURS["undetected"]
         body.append(f'<FONT POINT-SIZE="8" COLOR="{colour}">{html_text(warn)}</FONT>')
-    return "<" + "<BR/>".join(body) + ">"
+    # Graphviz spaces the lines by its own font metrics, tighter than the fonts a browser or
+    # its rasteriser uses: a thin empty line keeps the name's underscores off the digits.
+    return "<" + body[0] + NAME_GAP + "<BR/>".join(body[1:]) + ">"
 
 
 def _topic_line(name: str, topic: Topic | None, prefix: str, watch_list: list[Watch]) -> str:
@@ -732,6 +778,10 @@ LEGEND: dict[str, tuple[str, str]] = {
         '<TD WIDTH="40" HEIGHT="16" FIXEDSIZE="TRUE"><FONT POINT-SIZE="8">+N</FONT></TD>',
         "folded topics of the node",
     ),
+    "details": (
+        '<TD WIDTH="40" HEIGHT="16" FIXEDSIZE="TRUE"><FONT POINT-SIZE="8">% · MB</FONT></TD>',
+        "a node's cpu and memory limits",
+    ),
     "namespace": (
         '<TD BORDER="1" STYLE="rounded" COLOR="#b0bec5" BGCOLOR="#f7f9fa" WIDTH="40" '
         'HEIGHT="16" FIXEDSIZE="TRUE"><FONT POINT-SIZE="8">/ns</FONT></TD>',
@@ -758,12 +808,12 @@ LEGEND: dict[str, tuple[str, str]] = {
         "suspect (some diagnosis)",
     ),
     "bad": (
-        f'<TD BORDER="2" STYLE="rounded" COLOR="{COLOURS["bad"]}" WIDTH="40" HEIGHT="16" '
+        f'<TD BORDER="2" STYLE="rounded" COLOR="{COLOURS["bad"]}" WIDTH="40" HEIGHT="20" '
         'FIXEDSIZE="TRUE">c</TD>',
         "an observer of it reads bad",
     ),
     "good": (
-        f'<TD BORDER="2" STYLE="rounded" COLOR="{COLOURS["good"]}" WIDTH="40" HEIGHT="16" '
+        f'<TD BORDER="2" STYLE="rounded" COLOR="{COLOURS["good"]}" WIDTH="40" HEIGHT="20" '
         'FIXEDSIZE="TRUE">c</TD>',
         "its observers read good",
     ),
@@ -853,7 +903,8 @@ def _write(model: Model, scene: _Scene, clusters: Mapping[str, list[_Item]], sum
         legend=_legend_rows(scene.legend),
         relations=_relation_rows(scene.relations),
         statements=_cluster_text(clusters, scene.prefix),
-        newrank=len(clusters) > NEWRANK_ABOVE_CLUSTERS,
+        newrank=len(clusters) > NEWRANK_ABOVE_CLUSTERS or scene.compact,
+        compact=scene.compact,
         edges="".join(scene.edges),
         summary=summary,
     )

@@ -23,6 +23,10 @@ class EmitOptions:
 
     observers_package: str | None = None
     model_server_package: str | None = None
+    # Per component, the fault modes no observer detects (racc analyze's analysis, which a
+    # command runs: targets do not call engines), outlined on architecture.dot; None: not
+    # analysed, and the diagram says so.
+    undetected: tuple[tuple[str, tuple[str, ...]], ...] | None = None
 
     @property
     def stack(self) -> bool:
