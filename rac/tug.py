@@ -94,47 +94,75 @@ def _identifier(text: str) -> str:
 
 
 def import_tug(text: str, path: str, robot: str, default_rate: float = DEFAULT_RATE_HZ) -> Imported:
+    """A tug_diagnosis configuration as a RAM model, in its phases: the document, its nodes,
+    its observations, then the topic declarations; ``notes`` say what had no counterpart."""
+    doc = _document(text, path)
+    notes: list[str] = []
+    unknown_keys = sorted(set(doc) - {"nodes", "observations"})
+    if unknown_keys:
+        notes.append(f"top-level keys without a counterpart, ignored: {', '.join(unknown_keys)}")
+    # every topic a node or an observation names, in the order first named
+    topic_order: dict[str, None] = {}
+    nodes = [_node(k, entry, path, topic_order, notes) for k, entry in enumerate(doc["nodes"])]
+    rated = _observations(doc.get("observations"), path, nodes, topic_order, notes)
+    decls = _topic_declarations(topic_order, rated, default_rate)
+    header = (
+        f"Imported from the tug_diagnosis configuration {path} by `racc import tug`.",
+        "Every published topic depends on all of its node's subscriptions, as tug_diagnosis "
+        "models a node.",
+    )
+    model = Model(Name(_identifier(robot)), (), tuple(decls), tuple(nodes), comments=header)
+    return Imported(model, tuple(notes))
+
+
+def _document(text: str, path: str) -> dict[str, Any]:
     try:
         doc = safe_yaml(text, path)
     except yaml.YAMLError as err:
         raise _bad(path, f"not YAML: {err}") from None
     if not isinstance(doc, dict) or not isinstance(doc.get("nodes"), list):
         raise _bad(path, "no 'nodes' list")
-    notes: list[str] = []
-    unknown_keys = sorted(set(doc) - {"nodes", "observations"})
-    if unknown_keys:
-        notes.append(f"top-level keys without a counterpart, ignored: {', '.join(unknown_keys)}")
-    nodes: list[Node] = []
-    topic_order: dict[str, None] = {}
-    for k, entry in enumerate(doc["nodes"]):
-        if not isinstance(entry, dict) or not isinstance(entry.get("name"), str):
-            raise _bad(path, f"nodes[{k}] has no name")
-        name = entry["name"]
-        pubs = _names(entry.get("pub_topic"), path, f"node {name}: pub_topic", notes)
-        subs = _names(entry.get("sub_topic"), path, f"node {name}: sub_topic", notes)
-        pubs, subs = list(dict.fromkeys(pubs)), list(dict.fromkeys(subs))
-        extra = sorted(set(entry) - {"name", "pub_topic", "sub_topic"})
-        if extra:
-            notes.append(f"node {name}: keys without a counterpart, ignored: {', '.join(extra)}")
-        topic_order.update(dict.fromkeys([*subs, *pubs]))
-        publications = []
-        for t in pubs:
-            inputs = [s for s in subs if s != t]
-            if t in subs:
-                notes.append(
-                    f"node {name} subscribes and publishes {t}: its {t} cannot depend on "
-                    f"itself (Proposition 4.1), so it depends on its other inputs only"
-                )
-            publications.append(Publication(Name(t), tuple(Name(i) for i in inputs)))
-        nodes.append(
-            Node(
-                Name(name.removeprefix("/")),
-                subscribes=tuple(Name(s) for s in subs),
-                publishes=tuple(publications),
+    return doc
+
+
+def _node(k: int, entry: Any, path: str, topic_order: dict[str, None], notes: list[str]) -> Node:
+    """``nodes[k]``: every published topic depends on all of the node's other inputs."""
+    if not isinstance(entry, dict) or not isinstance(entry.get("name"), str):
+        raise _bad(path, f"nodes[{k}] has no name")
+    name = entry["name"]
+    pubs = _names(entry.get("pub_topic"), path, f"node {name}: pub_topic", notes)
+    subs = _names(entry.get("sub_topic"), path, f"node {name}: sub_topic", notes)
+    pubs, subs = list(dict.fromkeys(pubs)), list(dict.fromkeys(subs))
+    extra = sorted(set(entry) - {"name", "pub_topic", "sub_topic"})
+    if extra:
+        notes.append(f"node {name}: keys without a counterpart, ignored: {', '.join(extra)}")
+    topic_order.update(dict.fromkeys([*subs, *pubs]))
+    publications = []
+    for t in pubs:
+        inputs = [s for s in subs if s != t]
+        if t in subs:
+            notes.append(
+                f"node {name} subscribes and publishes {t}: its {t} cannot depend on "
+                f"itself (Proposition 4.1), so it depends on its other inputs only"
             )
-        )
+        publications.append(Publication(Name(t), tuple(Name(i) for i in inputs)))
+    return Node(
+        Name(name.removeprefix("/")),
+        subscribes=tuple(Name(s) for s in subs),
+        publishes=tuple(publications),
+    )
+
+
+def _observations(
+    observations: Any,
+    path: str,
+    nodes: list[Node],
+    topic_order: dict[str, None],
+    notes: list[str],
+) -> set[str]:
+    """The topics an ``hz`` observation watches; every other kind becomes a note."""
     rated: set[str] = set()
-    observations = doc.get("observations") or []
+    observations = observations or []
     if not isinstance(observations, list):
         raise _bad(path, "'observations' must be a list")
     known_nodes = {n.name.value for n in nodes}
@@ -164,6 +192,12 @@ def import_tug(text: str, path: str, robot: str, default_rate: float = DEFAULT_R
             need = MISSING.get(kind, f"an observer of type '{kind}'")
             what = ", ".join(topics or obs_nodes) or "(nothing named)"
             notes.append(f"{kind} on {what}: no counterpart; needs {need}")
+    return rated
+
+
+def _topic_declarations(
+    topic_order: dict[str, None], rated: set[str], default_rate: float
+) -> list[Topic]:
     decls = []
     for t in topic_order:
         if t in rated:
@@ -174,13 +208,7 @@ def import_tug(text: str, path: str, robot: str, default_rate: float = DEFAULT_R
             decls.append(Topic(Name(t), rate_hz=default_rate, comments=comment))
         else:
             decls.append(Topic(Name(t)))
-    header = (
-        f"Imported from the tug_diagnosis configuration {path} by `racc import tug`.",
-        "Every published topic depends on all of its node's subscriptions, as tug_diagnosis "
-        "models a node.",
-    )
-    model = Model(Name(_identifier(robot)), (), tuple(decls), tuple(nodes), comments=header)
-    return Imported(model, tuple(notes))
+    return decls
 
 
 def notes_as_comments(notes: Iterable[str]) -> tuple[str, ...]:
