@@ -562,43 +562,11 @@ def place(
         before = analyze(theory, mode, name=model.path)
     cands = candidates(model, learned, costs)
     weights = [c.cost for c in cands]
-    states = _States(theory, mode, cands)
-    reqs, unmet = requirements(states, before, cands)
-    if budget is None:
-        bound, x = lp_cover(reqs, weights)
-        chosen = round_cover(reqs, weights, x)
-    else:
-        bound, x = lp_budget(reqs, weights, budget)
-        chosen = set()
-        for j in sorted(range(len(weights)), key=lambda j: (-x[j], weights[j], j)):
-            spent = sum(weights[i] for i in chosen)
-            if x[j] > 0.5 and spent + weights[j] <= budget + 1e-9:
-                chosen.add(j)
-        chosen = greedy_add(reqs, weights, chosen, budget)
-    all_reqs = list(reqs)
-    after = before
-    patched = model
-    for _ in range(rounds):
-        patched = patch_model(model, cands, sorted(chosen))
-        patched_theory = _theory_of(patched)
-        after = analyze(patched_theory, mode, name=model.path)
-        # Requirements the chosen observers reveal (a fault they detect but do not yet tell
-        # apart): add them to the program and solve it again.
-        open_faults = dataclasses.replace(
-            after, faults=tuple(f for f in after.faults if not f.isolable)
-        )
-        new, _ = requirements(_States(patched_theory, mode, cands), open_faults, cands)
-        fresh = [r for r in new if not chosen.intersection(r.options) and r not in all_reqs]
-        if not fresh:
-            break
-        all_reqs.extend(fresh)
-        if budget is None:
-            bound, x = lp_cover(all_reqs, weights)
-            chosen = round_cover(all_reqs, weights, x)
-        else:
-            chosen = greedy_add(all_reqs, weights, chosen, budget)
-    if patch_model(model, cands, sorted(chosen)) != patched:  # chosen again after the check
-        after = analyze(_theory_of(patch_model(model, cands, sorted(chosen))), mode)
+    reqs, unmet = requirements(_States(theory, mode, cands), before, cands)
+    bound, chosen = _first_choice(reqs, weights, budget)
+    all_reqs, chosen, bound, after = _refine(
+        model, mode, cands, budget, reqs, chosen, bound, rounds, before
+    )
     notes = annotate(cands, sorted(chosen), all_reqs, mode)
     patched = patch_model(model, cands, sorted(chosen), notes, measured_rates_only=True)
     cost = sum(weights[j] for j in chosen)
@@ -615,6 +583,63 @@ def place(
         after,
         patched,
     )
+
+
+def _first_choice(
+    reqs: Sequence[Requirement], weights: Sequence[float], budget: float | None
+) -> tuple[float, set[int]]:
+    """The LP's bound and its rounding: a cover of every requirement, or within ``budget``
+    the observers the LP takes most of, then greedily the best of the rest."""
+    if budget is None:
+        bound, x = lp_cover(reqs, weights)
+        return bound, round_cover(reqs, weights, x)
+    bound, x = lp_budget(reqs, weights, budget)
+    chosen: set[int] = set()
+    for j in sorted(range(len(weights)), key=lambda j: (-x[j], weights[j], j)):
+        spent = sum(weights[i] for i in chosen)
+        if x[j] > 0.5 and spent + weights[j] <= budget + 1e-9:
+            chosen.add(j)
+    return bound, greedy_add(reqs, weights, chosen, budget)
+
+
+def _refine(
+    model: Model,
+    mode: str,
+    cands: Sequence[Candidate],
+    budget: float | None,
+    reqs: Sequence[Requirement],
+    chosen: set[int],
+    bound: float,
+    rounds: int,
+    before: Analysis,
+) -> tuple[list[Requirement], set[int], float, Analysis]:
+    """Up to ``rounds`` times: analyse the model with the chosen observers, add the
+    requirements they reveal (a fault they detect but do not yet tell apart) and solve again.
+    Returns every requirement, the choice, the LP's bound and the analysis with the choice."""
+    weights = [c.cost for c in cands]
+    all_reqs = list(reqs)
+    after = before
+    patched = model
+    for _ in range(rounds):
+        patched = patch_model(model, cands, sorted(chosen))
+        patched_theory = _theory_of(patched)
+        after = analyze(patched_theory, mode, name=model.path)
+        open_faults = dataclasses.replace(
+            after, faults=tuple(f for f in after.faults if not f.isolable)
+        )
+        new, _ = requirements(_States(patched_theory, mode, cands), open_faults, cands)
+        fresh = [r for r in new if not chosen.intersection(r.options) and r not in all_reqs]
+        if not fresh:
+            break
+        all_reqs.extend(fresh)
+        if budget is None:
+            bound, x = lp_cover(all_reqs, weights)
+            chosen = round_cover(all_reqs, weights, x)
+        else:
+            chosen = greedy_add(all_reqs, weights, chosen, budget)
+    if patch_model(model, cands, sorted(chosen)) != patched:  # chosen again after the check
+        after = analyze(_theory_of(patch_model(model, cands, sorted(chosen))), mode)
+    return all_reqs, chosen, bound, after
 
 
 def _theory_of(model: Model) -> Theory:
