@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import gc
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from typing import Generic, TypeVar
+
+Key = TypeVar("Key")
+Value = TypeVar("Value")
 
 
 @contextmanager
@@ -30,3 +34,24 @@ def paused_gc() -> Iterator[None]:
     finally:
         if enabled:
             gc.enable()
+
+
+class ByIdentity(Generic[Key, Value]):
+    """``make(obj)`` computed once per object for the last ``size`` objects, looked up by
+    identity: for frozen values (a theory) whose hashing would walk all of them.  An entry
+    holds its object, so the object's id stays unique while the entry lives."""
+
+    def __init__(self, make: Callable[[Key], Value], size: int = 8) -> None:
+        self._make = make
+        self._size = size
+        self._entries: dict[int, tuple[Key, Value]] = {}
+
+    def __call__(self, obj: Key) -> Value:
+        hit = self._entries.get(id(obj))
+        if hit is not None and hit[0] is obj:
+            return hit[1]
+        value = self._make(obj)
+        if len(self._entries) >= self._size:
+            self._entries.pop(next(iter(self._entries)))
+        self._entries[id(obj)] = (obj, value)
+        return value

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from rac.diagnosis.engine import Index
 from rac.diagnosis.search import HittingSetDag, minimal_sets, transversals
 from rac.diagnosis.theory import Literal, Theory
-from rac.perf import paused_gc
+from rac.perf import ByIdentity, paused_gc
 
 
 @dataclass(frozen=True, slots=True)
@@ -25,20 +25,8 @@ class DiagnosisResult:
         return tuple(c for c in self.components if c not in faulty)
 
 
-_CACHE: dict[int, tuple[Theory, Index]] = {}
-_CACHE_SIZE = 8
-
-
-def compile_theory(theory: Theory) -> Index:
-    """The clause index of ``theory``, built once per theory object and then reused."""
-    hit = _CACHE.get(id(theory))
-    if hit is not None and hit[0] is theory:
-        return hit[1]
-    index = Index(theory)
-    if len(_CACHE) >= _CACHE_SIZE:
-        _CACHE.pop(next(iter(_CACHE)))
-    _CACHE[id(theory)] = (theory, index)  # holds the theory, so its id stays unique
-    return index
+# The clause index of a theory, built once per theory object and then reused.
+compile_theory: ByIdentity[Theory, Index] = ByIdentity(Index)
 
 
 def _ordered(sets: Sequence[frozenset[str]]) -> tuple[tuple[str, ...], ...]:

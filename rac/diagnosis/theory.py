@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 from rac.errors import Diagnostic, RacError, Span, did_you_mean
 from rac.logic import AB, FALSE, NAB, NEG_PREFIX, Atom, Clause, mangle, parse_atom
+from rac.perf import ByIdentity
 
 if TYPE_CHECKING:  # the compiler loads only for .ram/.json models
     from rac.ir import Model
@@ -122,20 +123,9 @@ def parse_literal(text: str, theory: Theory) -> Literal:
     return literal_at(text, theory, None, _known_of(theory))
 
 
-_KNOWN_CACHE: dict[int, tuple[Theory, frozenset[Atom]]] = {}
-_KNOWN_CACHE_SIZE = 8
-
-
-def _known_of(theory: Theory) -> frozenset[Atom]:
-    """:func:`known_atoms` of ``theory``, computed once per theory object."""
-    hit = _KNOWN_CACHE.get(id(theory))
-    if hit is not None and hit[0] is theory:
-        return hit[1]
-    known = known_atoms(theory)
-    if len(_KNOWN_CACHE) >= _KNOWN_CACHE_SIZE:
-        _KNOWN_CACHE.pop(next(iter(_KNOWN_CACHE)))
-    _KNOWN_CACHE[id(theory)] = (theory, known)  # holds the theory, so its id stays unique
-    return known
+# known_atoms of the last few theories (parse_literal is called once per observation)
+# (a lambda: known_atoms is looked up when called, as a test that counts its calls wants)
+_known_of: ByIdentity[Theory, frozenset[Atom]] = ByIdentity(lambda t: known_atoms(t))
 
 
 def literal_at(
