@@ -32,9 +32,10 @@ def test_board_literals_replace_the_predicted_hardware_observations() -> None:
 def test_device_shutdown_runs_end_to_end_in_under_5_s(by_control: bool) -> None:
     theory = load_theory(TEDUSAR)
     assert theory.model is not None
+    model = theory.model
 
     async def main() -> None:
-        sim = BoardSimulator(channel_map(theory.model), 10)
+        sim = BoardSimulator(channel_map(model), 10)
         port, control = await sim.start()
         assert control is not None
         try:
@@ -73,9 +74,10 @@ def test_device_shutdown_runs_end_to_end_in_under_5_s(by_control: bool) -> None:
 def test_a_device_that_does_not_come_back_fails_clearly() -> None:
     theory = load_theory(TEDUSAR)
     assert theory.model is not None
+    model = theory.model
 
     async def main() -> None:
-        sim = BoardSimulator(channel_map(theory.model), 10)
+        sim = BoardSimulator(channel_map(model), 10)
         port, control = await sim.start()
         assert control is not None
         sim.state.inject(2, Fault.JAMMED)  # hokuyo's relay will not switch back on

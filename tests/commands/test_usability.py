@@ -3,9 +3,11 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 from collections.abc import Iterator
 from pathlib import Path
+from typing import cast
 
 import pytest
 
@@ -48,12 +50,17 @@ def test_check_reports_every_bad_model(capsys: pytest.CaptureFixture[str]) -> No
     assert code == 1 and "tedusar.ram: ok" in out and "error[RAC011]" in err
 
 
+def _subcommands(action: argparse.Action) -> dict[str, argparse.ArgumentParser]:
+    """The parsers of a subparsers action (argparse types its choices as any iterable)."""
+    return cast("dict[str, argparse.ArgumentParser]", action.choices)
+
+
 def test_every_command_takes_q() -> None:
     from rac.cli import build_parser
 
     parser = build_parser()
     sub = next(a for a in parser._actions if a.dest == "command")
-    for name, command in sub.choices.items():  # type: ignore[attr-defined]
+    for name, command in _subcommands(sub).items():
         assert any("-q" in a.option_strings for a in command._actions), name
 
 
@@ -120,7 +127,7 @@ def test_help_metavars_match_their_text() -> None:
 
     parser = build_parser()
     sub = next(a for a in parser._actions if a.dest == "command")
-    for name, command in sub.choices.items():  # type: ignore[attr-defined]
+    for name, command in _subcommands(sub).items():
         text = command.format_help()
         if "KIND@T[+D]:TARGET" in (command.description or ""):
             assert "KIND@T:TARGET" not in text, name
@@ -138,7 +145,7 @@ def test_help_descriptions_are_wrapped() -> None:
     try:
         parser = build_parser()
         sub = next(a for a in parser._actions if a.dest == "command")
-        for name, command in sub.choices.items():  # type: ignore[attr-defined]
+        for name, command in _subcommands(sub).items():
             for line in command.format_help().splitlines():
                 if not line.startswith(("  racc ", "  roslaunch ")):  # examples kept as written
                     assert len(line) <= 100, (name, line)

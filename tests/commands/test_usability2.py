@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from rac.cli import main
+from rac.errors import Diagnostic
 
 ROOT = Path(__file__).resolve().parents[2]
 TEDUSAR = str(ROOT / "models" / "tedusar.ram")
@@ -106,7 +107,7 @@ node arm { subscribes /goal }
     assert "'arm', 'nav'" in (found[0][1] or "")
 
 
-def _diagnostics(text: str) -> list[object]:
+def _diagnostics(text: str) -> list[Diagnostic]:
     from rac.errors import RacError
     from rac.parse import parse_ram
     from rac.pipeline import check_model
@@ -126,18 +127,20 @@ def test_a_unit_in_the_wrong_case_gets_its_caret_and_a_did_you_mean(
 ) -> None:
     text = f"robot r\ntopic /a @ 10 Hz\nnode n {{\n  publishes /a\n  limits {written}\n}}\n"
     (d,) = _diagnostics(text)
-    assert d.code == "RAC001" and d.hint == f"did you mean '{unit}'?"  # type: ignore[attr-defined]
-    assert d.span.column == column  # type: ignore[attr-defined]
+    assert d.code == "RAC001" and d.hint == f"did you mean '{unit}'?"
+    assert d.span is not None
+    assert d.span.column == column
 
 
 def test_a_rate_unit_in_the_wrong_case() -> None:
     (d,) = _diagnostics("robot r\ntopic /a @ 10 hz\nnode n { publishes /a }\n")
-    assert d.hint == "did you mean 'Hz'?" and d.span.column == 15  # type: ignore[attr-defined]
+    assert d.span is not None
+    assert d.hint == "did you mean 'Hz'?" and d.span.column == 15
 
 
 def test_a_tolerance_error_gives_the_values() -> None:
     (d,) = _diagnostics("robot r\ntopic /a @ 10 Hz +- 20 Hz\nnode n { publishes /a }\n")
-    assert d.code == "RAC029" and "20 Hz" in d.message and "10 Hz" in d.message  # type: ignore[attr-defined]
+    assert d.code == "RAC029" and "20 Hz" in d.message and "10 Hz" in d.message
 
 
 # Each rate option has a span of its own: the caret is under the option, not the whole line.
@@ -156,15 +159,16 @@ def test_a_rate_option_error_points_at_the_option(
     declaration: str, code: str, said: str, columns: tuple[int, int]
 ) -> None:
     text = f"robot r\n{declaration}\nnode n {{ publishes /a }}\n"
-    (d,) = [d for d in _diagnostics(text) if d.code == code]  # type: ignore[attr-defined]
+    (d,) = [d for d in _diagnostics(text) if d.code == code]
     assert said in d.message
-    assert (d.span.column, d.span.end_column) == columns  # type: ignore[attr-defined]
+    assert d.span is not None
+    assert (d.span.column, d.span.end_column) == columns
 
 
 @pytest.mark.parametrize(("window", "warned"), [("500 s", True), ("50 ms", True), ("2 s", False)])
 def test_a_window_far_outside_its_rate_is_warned(window: str, warned: bool) -> None:
     text = f"robot r\ntopic /a @ 10 Hz window {window}\nnode n {{ publishes /a }}\n"
-    codes = [d.code for d in _diagnostics(text)]  # type: ignore[attr-defined]
+    codes = [d.code for d in _diagnostics(text)]
     assert ("RAC133" in codes) == warned
 
 
@@ -251,7 +255,7 @@ def test_simulate_explains_a_fault_not_isolated_without_an_ambiguity_group() -> 
         Simulation(("mapper",), (), isolated, "output"),
     ]
     groups = ambiguity_groups(sims)
-    text = table_report(sims, groups, "output")
+    text = table_report(tuple(sims), groups, "output")
     assert groups == () and "none among the detected faults" not in text
     assert (
         "not isolated: lidar_driver: its symptoms are explained as well by {lidar, mapper}" in text

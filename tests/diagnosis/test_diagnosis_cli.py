@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from rac.cli import main
+from rac.logic import Atom
 
 ROOT = Path(__file__).resolve().parents[2]
 TEDUSAR = str(ROOT / "models" / "tedusar.ram")
@@ -202,7 +203,7 @@ def test_many_obs_scan_the_model_once(
     calls: list[int] = []
     real = theory_module.known_atoms
 
-    def counting(theory: theory_module.Theory) -> frozenset[theory_module.Atom]:
+    def counting(theory: theory_module.Theory) -> frozenset[Atom]:
         calls.append(1)
         return real(theory)
 

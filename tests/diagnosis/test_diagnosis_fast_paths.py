@@ -41,7 +41,7 @@ def generated() -> str:
 def _slow(text: str, file: str = "m.yaml") -> Theory:
     """The theory through libyaml's parser only."""
     fast = model_yaml._fast_entries
-    model_yaml._fast_entries = lambda text, file: None  # type: ignore[assignment]
+    model_yaml._fast_entries = lambda text, file: None
     try:
         return model_yaml.parse_model_yaml(text, file)
     finally:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import cast
 
 import pytest
 
@@ -53,11 +54,13 @@ def test_the_shortened_pioneer_reproduction(
     ]
     assert [(m["q"], m["alpha"]) for m in models][:2] == [(0.9, 10.0), (0.9, 2.5)]
     assert sorted(p.name for p in (tmp_path / "models").iterdir())[0] == "M1.ram"
-    faults = sum(len(r["faults"]) for r in doc["runs"])  # type: ignore[union-attr]
+    run_docs = cast("list[dict[str, list[object]]]", doc["runs"])  # docs/evaluate.md's JSON
+    faults = sum(len(r["faults"]) for r in run_docs)
     assert faults == 12  # six per thesis run, none in the clean one
 
     def reported(m: dict[str, object]) -> int:
-        return sum(1 for o in m["outcomes"] if o["reported"])  # type: ignore[union-attr]
+        outcomes = cast("list[dict[str, object]]", m["outcomes"])
+        return sum(1 for o in outcomes if o["reported"])
 
     best = max(models, key=lambda m: (reported(m), -len(m["false_positives"])))
     assert reported(best) == 12 and best["false_positives"] == []

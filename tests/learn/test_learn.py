@@ -72,7 +72,7 @@ def _read(robot: Robot, *paths: Path) -> Recording:
 
 
 def _learn(robot: Robot, recording: Recording, **options: float) -> LearnResult:
-    return learn(recording, LearnOptions(**options), base=robot.model)  # type: ignore[arg-type]
+    return learn(recording, LearnOptions(**options), base=robot.model)
 
 
 @pytest.fixture(scope="module", params=MODELS)

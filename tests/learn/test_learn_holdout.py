@@ -230,10 +230,10 @@ def test_quaternion_components_are_not_candidates_beside_their_angles() -> None:
         "angular_velocity.z": t,
         "yaw": t,
     }
-    with_yaw = _topic("/imu", t, **fields)
+    with_yaw = _topic("/imu", t, (), **fields)
     assert candidate_signals(with_yaw).fields == ("angular_velocity.z", "yaw")
     fields.pop("yaw")
-    without = _topic("/imu", t, **fields)
+    without = _topic("/imu", t, (), **fields)
     assert candidate_signals(without).fields == without.fields
 
 

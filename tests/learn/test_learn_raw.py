@@ -157,7 +157,9 @@ def _value(typ: str) -> st.SearchStrategy[Any]:
 
 def _draw_message(data: st.DataObject, store: Typestore, typename: str) -> Any:
     kwargs: dict[str, Any] = {}
-    for name, (nodetype, detail) in store.fielddefs[typename][1]:
+    # rosbags types a field as a union over its node types, told apart below by nodetype
+    fields: Any = store.fielddefs[typename][1]
+    for name, (nodetype, detail) in fields:
         if nodetype == Nodetype.BASE:
             kwargs[name] = data.draw(_value(detail[0]))
         elif nodetype == Nodetype.NAME:
@@ -241,7 +243,8 @@ def _on_random_messages(test: Callable[..., None]) -> Callable[..., None]:
     )
     test = pytest.mark.parametrize("ros", [1, 2])(test)
     # means of extreme random values warn
-    return pytest.mark.filterwarnings("ignore::RuntimeWarning")(test)
+    marked: Callable[..., None] = pytest.mark.filterwarnings("ignore::RuntimeWarning")(test)
+    return marked
 
 
 @_on_random_messages
@@ -377,7 +380,9 @@ def _draw_example(store: Typestore, typename: str) -> Any:
     types = store.types
     header = types["std_msgs/msg/Header"]
     stamp = types["builtin_interfaces/msg/Time"](sec=1, nanosec=2)
-    kwargs = {"seq": 3} if "seq" in header.__dataclass_fields__ else {}
+    # rosbags' message classes are dataclasses; its MsgType protocol does not say so
+    header_fields = header.__dataclass_fields__  # type: ignore[attr-defined]
+    kwargs = {"seq": 3} if "seq" in header_fields else {}
     return types[typename](
         header=header(stamp=stamp, frame_id="abc", **kwargs), temperature=21.5, variance=0.25
     )

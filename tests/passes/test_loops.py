@@ -125,7 +125,9 @@ def _consistent(model: Model, bad: frozenset[str], obs: list[tuple[str, bool]]) 
     return not any(t in world for t, v in obs if not v)
 
 
-def _brute_diagnoses(model: Model, comps: tuple[str, ...], obs: list[tuple[str, bool]]) -> list:
+def _brute_diagnoses(
+    model: Model, comps: tuple[str, ...], obs: list[tuple[str, bool]]
+) -> list[tuple[str, ...]]:
     found: list[frozenset[str]] = []
     for size in range(len(comps) + 1):
         for combo in combinations(comps, size):

@@ -87,6 +87,7 @@ def test_the_thesis_schedule_is_replayed_against_its_ground_truth(
     assert main(["replay", PIONEER, str(run), "-o", str(out), *plot]) == 0
     printed = capsys.readouterr().out
     truth = load_truth(tmp_path / "test.faults.yaml")
+    assert truth.duration is not None
     score = score_run(read_timeline(out, truth.duration), truth.faults)
     missed = [o.fault.kind for o in score.outcomes if not o.reported]
     # A slip shows only while the robot's manoeuvre lets the two headings disagree; the

@@ -18,8 +18,10 @@ ROOT = Path(__file__).resolve().parents[2]
 PIONEER = str(ROOT / "models" / "pioneer.ram")
 
 
-def _samples(node: str, start: float, end: float, period: float = 0.5) -> list[tuple]:
-    out = []
+def _samples(
+    node: str, start: float, end: float, period: float = 0.5
+) -> list[tuple[float, str, float, float]]:
+    out: list[tuple[float, str, float, float]] = []
     t = start
     while t < end:
         out.append((round(t, 6), node, 1.0, 1e6))
@@ -82,6 +84,7 @@ def test_a_three_second_crash_is_diagnosed_in_replay(
     out = tmp_path / "t.jsonl"
     assert main(["replay", PIONEER, str(run), "-o", str(out), "-q"]) == 0
     truth = load_truth(tmp_path / "crash.faults.yaml")
+    assert truth.duration is not None
     score = score_run(read_timeline(out, truth.duration), truth.faults)
     (outcome,) = score.outcomes
     assert outcome.reported and outcome.first is not None
@@ -157,6 +160,7 @@ def test_a_synth_trip_is_replayed_and_blamed_on_its_device(
     assert [(f.kind, f.culprits) for f in truth.faults] == [("trip", ("hokuyo",))]
     out = tmp_path / "t.jsonl"
     assert main(["replay", tedusar, str(run), "-o", str(out), "-q"]) == 0
+    assert truth.duration is not None
     timeline = read_timeline(out, truth.duration)
     assert any(
         r.literal == "not_on(hokuyo)" and 19.9 <= r.t < 25

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 import pytest
@@ -25,8 +27,9 @@ DURATION = 60.0
 
 def _synth(path: Path, **options: object) -> Path:
     model = load_model(TEDUSAR)
-    faults = tuple(parse_fault(f, model) for f in options.pop("faults", ()))  # type: ignore[attr-defined]
-    plan = plan_recording(model, SynthOptions(duration=DURATION, faults=faults, **options))  # type: ignore[arg-type]
+    given = cast("Iterable[str]", options.pop("faults", ()))  # _synth(..., faults=[...])
+    faults = tuple(parse_fault(f, model) for f in given)
+    plan = plan_recording(model, SynthOptions(duration=DURATION, faults=faults, **options))
     write_recording(plan, path)
     (path.parent / (path.name + ".csv")).write_text(plan.properties)
     return path

@@ -9,6 +9,7 @@ import re
 import shutil
 import subprocess
 from pathlib import Path
+from typing import Any
 
 import pydot
 import pytest
@@ -92,7 +93,7 @@ def all_nodes(graph: pydot.Dot | pydot.Subgraph) -> dict[str, dict[str, str]]:
 
 
 def edges_of(graph: pydot.Dot) -> list[tuple[str, str, dict[str, str]]]:
-    return [(e.get_source(), e.get_destination(), attrs(e)) for e in graph.get_edges()]
+    return [(str(e.get_source()), str(e.get_destination()), attrs(e)) for e in graph.get_edges()]
 
 
 def text_of(label: str) -> list[str]:
@@ -158,7 +159,8 @@ def test_tedusar_parses_as_one_digraph(tedusar_dot: str) -> None:
 def test_every_node_hardware_and_topic_appears(tedusar: Model, tedusar_dot: str) -> None:
     graph = parse(tedusar_dot)
     nodes = all_nodes(graph)
-    for component in [*tedusar.nodes, *tedusar.hardware]:
+    components: list[Node | Hardware] = [*tedusar.nodes, *tedusar.hardware]
+    for component in components:
         assert quote(component.name.value) in nodes, component.name.value
     shown = shown_topics(graph)
     for topic in tedusar.topics:  # every tedusar topic has a publisher and a reader
@@ -668,7 +670,7 @@ def test_fifty_node_robot_stays_compact() -> None:
 
 
 # The views of docs/diagrams.md, as goldens: DOT text is deterministic (SVG is Graphviz's).
-VIEWS = {
+VIEWS: dict[str, tuple[Path, dict[str, Any]]] = {
     "tedusar.coverage": (TEDUSAR, {"analysis": True}),
     "tedusar.focus_hector_mapping": (TEDUSAR, {"focus": "hector_mapping", "depth": 1}),
     "tedusar.diagnosis_jaguar_node": (TEDUSAR, {"diagnosis": (("jaguar_node",),)}),
@@ -698,8 +700,8 @@ def test_view_goldens(name: str, update_goldens: bool) -> None:
         view_options["undetected"] = tuple(sorted(found.items()))
     if "diagnosis" in options or "observed" in options:
         diagnoses = options.get("diagnosis", ())
-        title = "diagnosis: " + " | ".join(", ".join(d) for d in diagnoses)  # type: ignore[attr-defined]
-        view_options["health"] = Health(title, diagnoses, options.get("observed", ()))  # type: ignore[arg-type]
+        title = "diagnosis: " + " | ".join(", ".join(d) for d in diagnoses)
+        view_options["health"] = Health(title, diagnoses, options.get("observed", ()))
     text = emit_diagram(compiled.model, compiled.observers, View(**view_options))  # type: ignore[arg-type]
     assert_golden(GOLDEN / f"{name}.dot", text, update_goldens)
 

@@ -149,7 +149,7 @@ def reference_loop_rules(
     topics = sorted(
         _on_cycles({(i, p["topic"]) for _, _, p in pubs for i in p.get("affected_by") or []})
     )
-    out = []
+    out: list[tuple[list[str], str]] = []
     for size in range(2, len(topics) + 1):
         for subset in itertools.combinations(topics, size):
             inside = set(subset)
@@ -248,7 +248,7 @@ def rule_set(rules: list[str]) -> set[Clause]:
 
 def check_model_yaml(text: str, doc: dict[str, Any]) -> dict[str, Any]:
     """Assert everything contract §2/§3/§4 says about model.yaml; return it parsed."""
-    data = yaml.safe_load(text)
+    data: dict[str, Any] = yaml.safe_load(text)
     assert set(data) == {"ab", "nab", "neg_prefix", "props", "rules"}
     assert (data["ab"], data["nab"], data["neg_prefix"]) == ("AB", "NAB", "not_")
     rules = [parse_rule(r) for r in data["rules"]]
@@ -374,8 +374,8 @@ def test_example_6_1_clauses_are_in_tedusar() -> None:
     rules = yaml.safe_load(compiled_yaml(TEDUSAR))["rules"]
     got = rule_set(rules)
     by_head: dict[str, list[frozenset[str]]] = {}
-    for body, head in got:
-        by_head.setdefault(head, []).append(body)
+    for got_body, got_head in got:
+        by_head.setdefault(got_head, []).append(got_body)
     for line in EXAMPLE_6_1.strip().splitlines():
         body, head = parse_rule(line)
         if head in {"ok(la_servo1_moving)", "ok(la_servo2_moving)"}:
