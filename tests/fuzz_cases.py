@@ -184,7 +184,8 @@ def _structure_offsets(data: bytes, storage: str) -> list[int]:
     if storage == "sqlite3":
         page = int.from_bytes(data[16:18], "big") or 65536
         return [p + i for p in range(0, len(data), page) for i in range(16)]
-    offsets, at = [], 8
+    offsets: list[int] = []
+    at = 8
     while at + 9 <= len(data):
         offsets.extend(range(at, at + 9))
         length = int.from_bytes(data[at + 1 : at + 9], "little")

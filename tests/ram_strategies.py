@@ -138,7 +138,7 @@ def models(
                 diagnostics=tuple(Name(d) for d in _subset(draw, devices, max_size=2)),
                 machine=(
                     Name(draw(st.sampled_from(machine_names)))
-                    if machine_names and draw(st.booleans())
+                    if bool(machine_names) and draw(st.booleans())
                     else None
                 ),
                 container=(

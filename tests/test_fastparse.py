@@ -18,6 +18,7 @@ from rac import parse
 from rac.errors import RacError
 from rac.fastparse import Bail, fast_parse
 from rac.fmt import format_model
+from rac.ir import Interval, Related
 
 ROOT = Path(__file__).resolve().parent.parent
 MODELS = sorted((ROOT / "models").glob("*.ram"))
@@ -162,7 +163,8 @@ def test_integrated_sides(text: str) -> None:
     source = "robot r\ntopic /a { b }\n" + text
     if _same_or_bail(source):
         model, _ = fast_parse(source, "f.ram")
-        assert any(r.integrated for p in (*model.related, *model.intervals) for r in (p.a, p.b))
+        pairs: tuple[Related | Interval, ...] = (*model.related, *model.intervals)
+        assert any(r.integrated for p in pairs for r in (p.a, p.b))
 
 
 def test_integrated_sides_usually_take_the_fast_path() -> None:

@@ -14,7 +14,7 @@ fails with rosbags' own error, and a message the walk does not understand (big-e
 is still read.  The generated code holds nothing from the message data nor any name from
 the definitions: only sizes and counts (integers), numbered variables and the helpers
 below.  It mirrors rosbags' own generated deserializers (``rosbags.serde``), alignment
-rules included; tests/test_learn_raw.py compares the two on random messages.
+rules included; tests/learn/test_learn_raw.py compares the two on random messages.
 """
 
 from __future__ import annotations

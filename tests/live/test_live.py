@@ -72,7 +72,7 @@ def test_demo_robot_faults_are_diagnosed_repaired_and_verified(robot: LiveRobot)
     if extras:
         faults += [f"crash@+{FIRST_AT:g}:jaguar_node", f"crash@+{SECOND_AT:g}:imu_node"]
     demo = robot.start_demo("demo1", faults)
-    runtime = []
+    runtime: list[subprocess.Popen[bytes]] = []
     try:
         launched = robot.wait_demo(60)
         print(f"\n{robot.ros.id}: demo nodes up after {launched - demo.epoch:.2f} s")
@@ -162,7 +162,7 @@ def test_record_learn_compile_relaunch_diagnoses_a_crash(robot: LiveRobot) -> No
     watch = robot.watch
     crash_at = 15.0  # after the learned model's runtime is seen
     demo = robot.start_demo("demo2", [f"crash@+{crash_at:g}:imu_node"])
-    runtime = []
+    runtime: list[subprocess.Popen[bytes]] = []
     try:
         robot.wait_demo(60)
         tmp, ros = robot.tmp, robot.ros
@@ -197,7 +197,7 @@ def test_a_node_the_repair_engine_started_outlives_the_runtime(robot: LiveRobot)
     watch = robot.watch
     crash_at = 15.0
     demo = robot.start_demo("demo3", [f"crash@+{crash_at:g}:imu_node"])
-    runtime = []
+    runtime: list[subprocess.Popen[bytes]] = []
     pid = None
     try:
         robot.wait_demo(60)
@@ -236,7 +236,7 @@ def test_stopping_the_robot_before_the_runtime_repairs_nothing(robot: LiveRobot)
     # The robot was shut down before racc, and racc restarted the robot's nodes.
     watch = robot.watch
     demo = robot.start_demo("demo4")
-    runtime = []
+    runtime: list[subprocess.Popen[bytes]] = []
     try:
         launched, runtime = observed_runtime(robot, demo)
         # The repair engine is up (its status on /diagnostics, once a second).
@@ -266,7 +266,7 @@ def test_a_frozen_node_is_killed_after_the_step_timeout_and_restarted(robot: Liv
     # the node is killed (found without asking it: it answers nothing), then restarted.
     watch = robot.watch
     demo = robot.start_demo("demo5")
-    runtime = []
+    runtime: list[subprocess.Popen[bytes]] = []
     frozen: psutil.Process | None = None
     name_arg = "__node:=hokuyo_node" if robot.ros.version == 2 else "__name:=hokuyo_node"
     try:

@@ -13,8 +13,8 @@ import socket
 import subprocess
 from pathlib import Path
 
-from live_harness import RACC, LiveRobot, Ros, wait_for_text
-from soak_support import free_port
+from live_harness import LiveRobot, Ros, wait_for_text
+from soak_support import RACC, free_port
 
 # The crash comes 15 s after the runtime is seen (``crash@+15``, issue 26 item 6): however
 # slowly the demo's nodes and racc run come up on a loaded machine.

@@ -27,7 +27,7 @@ Trace = list[tuple[float, float | None]]  # (receive time, stamp)
 
 def gobs(rate: float, **extra: float) -> GObs:
     delta = 1.0 / rate
-    params = (
+    params: tuple[tuple[str, str | int | float], ...] = (
         ("topic", "/x"),
         ("delta", delta),
         ("dev", 1.0 / (0.9 * rate) - delta),
@@ -192,7 +192,7 @@ def test_a_stamp_of_zero_or_none_ends_trust_at_once() -> None:
 
 def test_stamps_of_a_clock_at_another_rate_are_not_trusted() -> None:
     # A bag played at 0.8 times its speed: the stamps say 100 Hz, the wire carries 80 Hz.
-    trace = [(k / 80.0, NOW + k / 100.0) for k in range(80 * 60)]
+    trace: list[tuple[float, float | None]] = [(k / 80.0, NOW + k / 100.0) for k in range(80 * 60)]
     obs = gobs(100.0)
     assert texts(run(obs, trace)) == ["ok(x)", "not_ok(x)"]  # the θ rule's first is ok
     assert not obs.stamped

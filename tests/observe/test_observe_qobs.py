@@ -205,7 +205,10 @@ def test_the_floor_keeps_random_walk_drift_constant(monkeypatch: pytest.MonkeyPa
     rng = np.random.default_rng(1)
     times = np.arange(0.0, 60.0, 0.01)
     rate = rng.normal(0, 0.05, times.size) + np.where(times % 20 < 4, 1.0, 0.0) * (times % 20 >= 2)
-    phase = lambda c: c % 20  # noqa: E731
+
+    def phase(c: np.ndarray) -> np.ndarray:
+        return c % 20
+
     centres, got = run(QObs(1.0, integral=True), times, rate)
     at_rest = (phase(centres) >= 6) & (phase(centres) < 19)
     turning = (phase(centres) >= 2.8) & (phase(centres) < 3.2)
@@ -355,7 +358,10 @@ def heading(t: np.ndarray) -> np.ndarray:
     at_start = np.concatenate([[0.0], np.cumsum(rates * 8.0)])
     phase = np.floor(t / 8.0).astype(int)
     k = phase % rates.size
-    return np.floor(phase / rates.size) * at_start[-1] + at_start[k] + rates[k] * (t - 8.0 * phase)
+    turned: np.ndarray = (
+        np.floor(phase / rates.size) * at_start[-1] + at_start[k] + rates[k] * (t - 8.0 * phase)
+    )
+    return turned
 
 
 def test_biqobs_two_noisy_copies_at_different_rates_match() -> None:

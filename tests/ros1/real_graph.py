@@ -22,6 +22,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import cast
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))  # tests/: soak_support (bench/soak.py imports us too)
@@ -116,7 +117,9 @@ class Graph:
             uri = rosgraph.Master("/racc_soak", master_uri=self.env["ROS_MASTER_URI"]).lookupNode(
                 "/" + node
             )
-            code, _, pid = xmlrpc.client.ServerProxy(uri).getPid("/racc_soak")
+            # ROS's slave API answers (code, status message, pid)
+            reply = xmlrpc.client.ServerProxy(uri).getPid("/racc_soak")
+            code, _, pid = cast("tuple[int, str, int]", reply)
         except Exception:  # not registered, or its XML-RPC server is gone or frozen
             return None
         return int(pid) if code == 1 else None

@@ -17,14 +17,13 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from live_harness import (
-    RACC,
     ROS1,
     check_runnable,
     environment,
     start_roscore,
     wait_for_text,
 )
-from soak_support import Processes, free_port
+from soak_support import RACC, Processes, free_port
 
 if not ROS1.required() and ROS1.missing() is not None:
     pytest.skip(f"ROS 1 cannot run here: {ROS1.missing()}", allow_module_level=True)

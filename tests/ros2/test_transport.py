@@ -9,6 +9,7 @@ import sys
 import time
 from pathlib import Path
 
+import psutil
 import pytest
 
 from rac.commands.common import ros_version
@@ -85,7 +86,7 @@ def test_a_node_is_its_innermost_process() -> None:
     outer = subprocess.Popen(args)
     try:
         deadline = time.time() + 10
-        found = []
+        found: list[psutil.Process] = []
         while time.time() < deadline and len(found) < 2:
             found = node_processes("racc_test_probe_node")
             time.sleep(0.1)

@@ -128,7 +128,7 @@ def test_a_late_tick_does_not_make_the_next_ones_come_early() -> None:
         slept.append(s)
         now[0] += s
 
-    times = []
+    times: list[float] = []
     for t in ticks(0.1, lambda: len(times) < 5, clock=lambda: now[0], sleep=sleep):
         times.append(t)
         if len(times) == 2:

@@ -4,6 +4,7 @@ host reads them: real ROS 1 bags of robots racc did not record, and ROS 2 CDR.""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -41,7 +42,9 @@ def test_ros1_stamps_are_the_headers_stamps(bag: str, topic: str, fields: frozen
             definition = conn.msgdef.data if hasattr(conn.msgdef, "data") else str(conn.msgdef)
             ros_type = conn.msgtype.replace("/msg/", "/")
             values, stamp = readers.read(topic, raw, lambda: (ros_type, definition))  # noqa: B023
-            header = store.deserialize_ros1(raw, conn.msgtype).header.stamp
+            # rosbags types a message as object: its fields depend on its type
+            message: Any = store.deserialize_ros1(raw, conn.msgtype)
+            header = message.header.stamp
             assert stamp == pytest.approx(header.sec + header.nanosec * 1e-9, abs=1e-9)
             assert set(values) == set(fields)
             seen += 1
