@@ -224,7 +224,7 @@ def run(args: argparse.Namespace) -> int:
 
         load_launch(args.launch)  # RAC117 before any ROS work
     elif args.launch:
-        from rac.ros1.repairer import load_launch_nodes
+        from rac.ros1.actuator import load_launch_nodes
 
         load_launch_nodes(args.launch)  # RAC059 before any ROS work
     observers = args.observers or str(Path(args.model).parent / "observers.yaml")

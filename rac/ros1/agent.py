@@ -9,6 +9,7 @@ from typing import Any
 
 from rac.passes.machines import node_placements
 from rac.passes.observers import ObserverSpec
+from rac.ros1.actuator import Ros1Actuator
 from rac.ros1.common import Ros1Bus
 from rac.runtime.nodes import RepairJob
 from rac.runtime.repairer import Actuator
@@ -56,8 +57,6 @@ def start_agent(
     container; None without a machine."""
     if machine is None:
         return None
-    from rac.ros1.repairer import Ros1Actuator
-
     local = Ros1Actuator(bus.rospy, launch) if launch else None
     agent = Agent(machine, node_placements(specs), local)
     serve_agent(bus.rospy, agent)

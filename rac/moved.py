@@ -1,0 +1,48 @@
+"""Old module paths that files outside racc still name, served by the modules now there.
+
+The executables of a ``racc`` ROS package (``racc ros-package``) import racc's entry point;
+packages written before it moved beside :mod:`rac.cli` say ``from rac.ros1.entry import
+main``.  A robot that upgrades racc and keeps its package must keep starting, so importing
+an old path gives the module at its new one (the same module object).  A name, not a code
+dependency: no transport imports an entry point."""
+
+from __future__ import annotations
+
+import importlib
+import importlib.abc
+import importlib.machinery
+import importlib.util
+from collections.abc import Sequence
+from types import ModuleType
+
+# old path -> new path
+MOVED = {
+    "rac.ros1.entry": "rac.entry_ros1",
+    "rac.ros2.entry": "rac.entry_ros2",
+}
+
+
+class _MovedLoader(importlib.abc.Loader):
+    def __init__(self, new: str) -> None:
+        self.new = new
+
+    def create_module(self, spec: importlib.machinery.ModuleSpec) -> ModuleType:
+        return importlib.import_module(self.new)
+
+    def exec_module(self, module: ModuleType) -> None:
+        """Already executed under its new name."""
+
+
+class MovedFinder(importlib.abc.MetaPathFinder):
+    """Finds the paths of :data:`MOVED` (after every other finder: a real module wins)."""
+
+    def find_spec(
+        self,
+        fullname: str,
+        path: Sequence[str] | None,
+        target: ModuleType | None = None,
+    ) -> importlib.machinery.ModuleSpec | None:
+        new = MOVED.get(fullname)
+        if new is None:
+            return None
+        return importlib.util.spec_from_loader(fullname, _MovedLoader(new))
