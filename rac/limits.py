@@ -167,10 +167,13 @@ def yaml_error_span(err: yaml.YAMLError, file: str) -> Span | None:
     return Span(file, mark.line + 1, mark.column + 1, mark.line + 1, mark.column + 2)
 
 
-def yaml_error_diagnostic(err: yaml.YAMLError, file: str, code: str) -> Diagnostic:
-    """A text that is not YAML, as the diagnostic ``code`` of its reader, located."""
+def yaml_error_diagnostic(
+    err: yaml.YAMLError, file: str, code: str, hint: str | None = None
+) -> Diagnostic:
+    """A text that is not YAML, as the diagnostic ``code`` of its reader, located: the one
+    conversion of PyYAML's errors every YAML reader of racc uses."""
     problem = getattr(err, "problem", None) or str(err)
-    return Diagnostic(code, f"not valid YAML: {problem}", yaml_error_span(err, file))
+    return Diagnostic(code, f"not valid YAML: {problem}", yaml_error_span(err, file), hint=hint)
 
 
 def _nesting_refused(err: yaml.YAMLError) -> bool:

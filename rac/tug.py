@@ -28,7 +28,7 @@ import yaml
 
 from rac.errors import Diagnostic, RacError, Severity
 from rac.ir import Model, Name, Node, Publication, Topic
-from rac.limits import safe_yaml
+from rac.limits import safe_yaml, yaml_error_diagnostic
 
 DEFAULT_RATE_HZ = 10.0
 
@@ -54,17 +54,14 @@ class Imported:
         return tuple(Diagnostic("RAC106", n, severity=Severity.NOTE) for n in self.notes)
 
 
+SHAPE_HINT = (
+    "a tug_diagnosis configuration has 'nodes' (name, pub_topic, sub_topic) "
+    "and 'observations' (type, topics or nodes)"
+)
+
+
 def _bad(path: str, message: str) -> RacError:
-    return RacError(
-        [
-            Diagnostic(
-                "RAC064",
-                f"{path}: {message}",
-                hint="a tug_diagnosis configuration has 'nodes' (name, pub_topic, sub_topic) "
-                "and 'observations' (type, topics or nodes)",
-            )
-        ]
-    )
+    return RacError([Diagnostic("RAC064", f"{path}: {message}", hint=SHAPE_HINT)])
 
 
 def _names(value: Any, path: str, where: str, notes: list[str] | None = None) -> list[str]:
@@ -119,7 +116,9 @@ def _document(text: str, path: str) -> dict[str, Any]:
     try:
         doc = safe_yaml(text, path)
     except yaml.YAMLError as err:
-        raise _bad(path, f"not YAML: {err}") from None
+        raise RacError(
+            [yaml_error_diagnostic(err, path, "RAC064", hint=SHAPE_HINT)], text
+        ) from None
     if not isinstance(doc, dict) or not isinstance(doc.get("nodes"), list):
         raise _bad(path, "no 'nodes' list")
     return doc

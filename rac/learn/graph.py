@@ -25,7 +25,7 @@ from typing import Any
 import yaml
 
 from rac.errors import Diagnostic, RacError
-from rac.limits import MAX_YAML_BYTES, YamlLimit, compose_yaml
+from rac.limits import MAX_YAML_BYTES, YamlLimit, compose_yaml, yaml_error_diagnostic
 
 INFRASTRUCTURE_TOPICS = frozenset({"/rosout", "/rosout_agg", "/parameter_events", "/clock"})
 # racc's own topics (runtime, board client, repairer): what racc says about the robot.
@@ -108,10 +108,11 @@ class Graph:
     hardware: tuple[GraphHardware, ...]
 
 
+SHAPE_HINT = "see docs/learning.md for the shape"
+
+
 def _bad(path: str, why: str) -> RacError:
-    return RacError(
-        [Diagnostic("RAC081", f"{path}: {why}", hint="see docs/learning.md for the shape")]
-    )
+    return RacError([Diagnostic("RAC081", f"{path}: {why}", hint=SHAPE_HINT)])
 
 
 def _names(value: Any, path: str, where: str) -> tuple[str, ...]:
@@ -134,7 +135,9 @@ def parse_graph(text: str, path: str) -> Graph:
     except YamlLimit as err:
         raise _bad(path, f"line {err.mark.line + 1}: {err.message}") from None
     except yaml.YAMLError as err:
-        raise _bad(path, f"not YAML: {err}") from None
+        raise RacError(
+            [yaml_error_diagnostic(err, path, "RAC081", hint=SHAPE_HINT)], text
+        ) from None
     if not isinstance(doc, dict) or not isinstance(doc.get("nodes"), dict):
         raise _bad(path, "expected a mapping with a 'nodes' mapping")
     unknown = set(doc) - {"nodes", "hardware"}

@@ -5,7 +5,7 @@ from __future__ import annotations
 import yaml
 
 from rac.errors import Diagnostic, RacError
-from rac.limits import safe_yaml
+from rac.limits import safe_yaml, yaml_error_diagnostic
 from rac.load.files import read_text
 
 
@@ -15,7 +15,7 @@ def load_costs(path: str) -> dict[str, float]:
     try:
         doc = safe_yaml(text, path)
     except yaml.YAMLError as err:
-        raise RacError([Diagnostic("RAC062", f"{path}: not YAML: {err}")]) from None
+        raise RacError([yaml_error_diagnostic(err, path, "RAC062")], text) from None
     if doc is None:
         return {}
     bad = not isinstance(doc, dict) or any(
