@@ -61,11 +61,11 @@ def main() -> None:
             _, specs = load_observers(path)
             line = f"{path.name}: {len(text) / 1e6:.1f} MB, {len(specs):,} observers"
             took = _best(args.repeat, partial(load_observers, path))
-            line += f", load_observers {took:.3f} s"
+            line += f", load_observers {took * 1e3:.1f} ms"
             if args.yaml:
                 loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
                 took = _best(1, partial(yaml.load, text, Loader=loader))
-                line += f", CSafeLoader {took:.3f} s"
+                line += f", CSafeLoader {took * 1e3:.1f} ms"
             print(line, flush=True)
 
 
