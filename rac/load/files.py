@@ -12,6 +12,7 @@ import yaml
 from rac.errors import Diagnostic, RacError, Span
 from rac.limits import MAX_INPUT_BYTES, safe_yaml
 from rac.logic import parse_atom
+from rac.perf import paused_gc
 
 if TYPE_CHECKING:  # the parsers and passes load on first use: `racc diagnose x.yaml` needs none
     from rac.ir import Model
@@ -109,6 +110,7 @@ def load_model(path: str | Path) -> Model:
     return parse_ram(text, str(path))
 
 
+@paused_gc()  # a large robot's observers are a million small objects, none cyclic (rac.perf)
 def load_observers(path: str | Path) -> tuple[str, tuple[ObserverSpec, ...]]:
     """``observers.yaml`` (what ``racc compile`` writes): the robot's name and its observers.
 
@@ -121,10 +123,16 @@ def load_observers(path: str | Path) -> tuple[str, tuple[ObserverSpec, ...]]:
         hint = "give the observers.yaml that 'racc compile' wrote"
         return RacError([Diagnostic("RAC056", f"{path}: {why}", hint=hint)])
 
-    try:
-        data = safe_yaml(text, str(path))
-    except yaml.YAMLError as err:
-        raise bad(f"not YAML: {err}") from None
+    # racc's own layout is read whatever its size (a 50,000-node robot's is 33.8 MB);
+    # any other text by the YAML path, within its limits (RAC009).
+    from rac.load.observers_yaml import racc_layout_document
+
+    data = racc_layout_document(text)
+    if data is None:
+        try:
+            data = safe_yaml(text, str(path))
+        except yaml.YAMLError as err:
+            raise bad(f"not YAML: {err}") from None
     if not isinstance(data, dict) or not isinstance(data.get("observers"), list):
         raise bad("expected a mapping with a list 'observers'")
     from rac.passes.observers import ObserverSpec

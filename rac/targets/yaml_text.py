@@ -64,6 +64,9 @@ def _safe_pattern() -> re.Pattern[str]:
 
 # ``_SAFE.fullmatch(s)`` is ``_plain(s)`` without the exception: one C call per string.
 _SAFE = _safe_pattern()
+# Not None when a string is written as a plain scalar that YAML reads back as this string
+# (rac.load.observers_yaml reads the strings racc writes with it).
+plain_string = _SAFE.fullmatch
 
 
 class NotSimple(Exception):
