@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, BinaryIO
 import yaml
 
 from rac.errors import Diagnostic, RacError, Span
-from rac.limits import MAX_INPUT_BYTES, safe_yaml
+from rac.limits import MAX_INPUT_BYTES, safe_yaml, yaml_error_diagnostic
 from rac.logic import parse_atom
 from rac.perf import paused_gc
 
@@ -119,12 +119,14 @@ def load_observers(path: str | Path) -> tuple[str, tuple[ObserverSpec, ...]]:
     """
     text = read_text(path)
 
+    hint = "give the observers.yaml that 'racc compile' wrote"
+
     def bad(why: str) -> RacError:
-        hint = "give the observers.yaml that 'racc compile' wrote"
         return RacError([Diagnostic("RAC056", f"{path}: {why}", hint=hint)])
 
     # racc's own layout is read whatever its size (a 50,000-node robot's is 33.8 MB);
-    # any other text by the YAML path, within its limits (RAC009).
+    # any other text by the YAML path, within its limits (RAC009).  Imported here: its
+    # regular expressions are compiled only by the commands that read observers.
     from rac.load.observers_yaml import racc_layout_document
 
     data = racc_layout_document(text)
@@ -132,7 +134,8 @@ def load_observers(path: str | Path) -> tuple[str, tuple[ObserverSpec, ...]]:
         try:
             data = safe_yaml(text, str(path))
         except yaml.YAMLError as err:
-            raise bad(f"not YAML: {err}") from None
+            diagnostic = yaml_error_diagnostic(err, str(path), "RAC056", hint=hint)
+            raise RacError([diagnostic], text) from None
     if not isinstance(data, dict) or not isinstance(data.get("observers"), list):
         raise bad("expected a mapping with a list 'observers'")
     from rac.passes.observers import ObserverSpec

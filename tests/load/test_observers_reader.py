@@ -228,7 +228,9 @@ def test_the_layout_racc_writes_is_read_the_fast_way() -> None:
 
 
 # The YAML path loads with libyaml's loader where installed: the fast reader agrees with both.
-_LOADERS = [yaml.SafeLoader, *([yaml.CSafeLoader] if hasattr(yaml, "CSafeLoader") else [])]
+_LOADERS: list[type[yaml.SafeLoader] | type[yaml.CSafeLoader]] = [yaml.SafeLoader]
+if hasattr(yaml, "CSafeLoader"):
+    _LOADERS.append(yaml.CSafeLoader)
 
 
 def _agrees(text: str) -> None:

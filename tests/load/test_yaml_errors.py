@@ -11,6 +11,7 @@ import pytest
 from rac.errors import RacError
 from rac.learn.graph import parse_graph
 from rac.load.costs import load_costs
+from rac.load.files import load_observers
 from rac.tug import import_tug
 
 BROKEN = "nodes: [a, b\n  c: d\n"
@@ -28,8 +29,13 @@ def _costs(path: Path) -> object:
     return load_costs(str(path))
 
 
+def _observers(path: Path) -> object:
+    return load_observers(path)
+
+
 @pytest.mark.parametrize(
-    ("read", "code"), [(_tug, "RAC064"), (_graph, "RAC081"), (_costs, "RAC062")]
+    ("read", "code"),
+    [(_tug, "RAC064"), (_graph, "RAC081"), (_costs, "RAC062"), (_observers, "RAC056")],
 )
 def test_a_text_that_is_not_yaml_is_located(
     tmp_path: Path, read: Callable[[Path], object], code: str
