@@ -9,11 +9,13 @@ dependency: no transport imports an entry point."""
 from __future__ import annotations
 
 import importlib
-import importlib.abc
-import importlib.machinery
-import importlib.util
 from collections.abc import Sequence
+from importlib.machinery import ModuleSpec
 from types import ModuleType
+from typing import TYPE_CHECKING, cast
+
+if TYPE_CHECKING:
+    from importlib.abc import Loader
 
 # old path -> new path
 MOVED = {
@@ -22,18 +24,22 @@ MOVED = {
 }
 
 
-class _MovedLoader(importlib.abc.Loader):
+# The finder and loader follow importlib's protocols without its abstract classes:
+# importlib.abc imports importlib.resources, 8 ms on every racc start.
+
+
+class _MovedLoader:
     def __init__(self, new: str) -> None:
         self.new = new
 
-    def create_module(self, spec: importlib.machinery.ModuleSpec) -> ModuleType:
+    def create_module(self, spec: ModuleSpec) -> ModuleType:
         return importlib.import_module(self.new)
 
     def exec_module(self, module: ModuleType) -> None:
         """Already executed under its new name."""
 
 
-class MovedFinder(importlib.abc.MetaPathFinder):
+class MovedFinder:
     """Finds the paths of :data:`MOVED` (after every other finder: a real module wins)."""
 
     def find_spec(
@@ -41,8 +47,8 @@ class MovedFinder(importlib.abc.MetaPathFinder):
         fullname: str,
         path: Sequence[str] | None,
         target: ModuleType | None = None,
-    ) -> importlib.machinery.ModuleSpec | None:
+    ) -> ModuleSpec | None:
         new = MOVED.get(fullname)
         if new is None:
             return None
-        return importlib.util.spec_from_loader(fullname, _MovedLoader(new))
+        return ModuleSpec(fullname, cast("Loader", _MovedLoader(new)))
