@@ -18,16 +18,11 @@ from __future__ import annotations
 
 import sys
 
+from rac.targets import ros1_package
 from rac.targets.ros1_package import PACKAGE
 
-EXECUTABLES = {  # executable -> racc command (demo_node: the entry's own)
-    "observe": "observe",
-    "engine": "engine",
-    "repairer": "repairer",
-    "board_client": "board-client",
-    "demo_node": "demo-node",
-    "record": "record",
-}
+# executable -> racc command: ROS 1's, and the recorder (ROS 1 records with racc record)
+EXECUTABLES = {**ros1_package.EXECUTABLES, "record": "record"}
 
 PACKAGE_XML = """<?xml version="1.0"?>
 <package format="3">
