@@ -21,8 +21,8 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from rac.analysis.analyze import undetected  # noqa: E402
-from rac.commands.reports import theory_of  # noqa: E402
 from rac.diagnosis.modes import MODES  # noqa: E402
+from rac.diagnosis.theory import theory_of  # noqa: E402
 from rac.load.files import load_model  # noqa: E402
 from rac.pipeline import compile_model  # noqa: E402
 from rac.targets.dot import View, emit_diagram  # noqa: E402

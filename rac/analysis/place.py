@@ -37,7 +37,7 @@ import numpy as np
 from rac.analysis.analyze import Analysis, analyze, analyzer_for, cone, flow_graph
 from rac.diagnosis.engine import Index
 from rac.diagnosis.modes import truth_model
-from rac.diagnosis.theory import Literal, Theory
+from rac.diagnosis.theory import Literal, Theory, theory_of
 from rac.errors import Diagnostic, RacError
 from rac.ir import FieldRef, Interval, Limits, Model, Name, Related
 from rac.logic import Atom, mangle
@@ -643,8 +643,7 @@ def _refine(
 
 
 def _theory_of(model: Model) -> Theory:
-    compiled = compile_model(model)
-    return Theory(compiled.rbm, compiled.props, compiled.components, model=compiled.model)
+    return theory_of(compile_model(model))
 
 
 def exact_cover_cost(reqs: Sequence[Requirement], costs: Sequence[float]) -> float:

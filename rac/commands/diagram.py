@@ -15,7 +15,8 @@ from typing import TYPE_CHECKING, Any
 
 from rac.commands.common import add_command, count, load_and_compile
 from rac.commands.options import add_max_card_option, add_observation_options
-from rac.commands.reports import diagnosis_title, theory_of, undetected_faults
+from rac.commands.reports import diagnosis_title, undetected_faults
+from rac.diagnosis.theory import theory_of
 from rac.errors import Diagnostic, RacError
 from rac.load.drawing import (
     check_suffix,

@@ -118,17 +118,6 @@ def draw_health(compiled: Compiled, at: float, timeline: Timeline, output: str) 
     )
 
 
-def theory_of(compiled: Compiled) -> Theory:
-    from rac.diagnosis import Theory
-
-    return Theory(
-        clauses=compiled.rbm,
-        props=compiled.props,
-        components=compiled.components,
-        model=compiled.model,
-    )
-
-
 def compile_undetected(
     compiled: Compiled, quiet: bool
 ) -> tuple[tuple[str, tuple[str, ...]], ...] | None:
@@ -136,6 +125,9 @@ def compile_undetected(
     COMPILE_ANALYSIS_UP_TO_NODES nodes."""
     if len(compiled.model.nodes) > COMPILE_ANALYSIS_UP_TO_NODES:
         return None
+    # on first use: every command imports this module, and rac.diagnosis is not light
+    from rac.diagnosis.theory import theory_of
+
     return undetected_faults(theory_of(compiled), quiet)
 
 

@@ -19,6 +19,7 @@ from rac.perf import ByIdentity
 
 if TYPE_CHECKING:  # the compiler loads only for .ram/.json models
     from rac.ir import Model
+    from rac.pipeline import Compiled
 
 
 Key = tuple[str, tuple[str, ...]]  # an atom as (predicate, args)
@@ -68,6 +69,16 @@ class Theory:
 
     def is_assumption(self, atom: Atom) -> bool:
         return atom.predicate in (self.ab, self.nab)
+
+
+def theory_of(compiled: Compiled) -> Theory:
+    """The diagnosis theory of a compiled model: its clauses, observables and components."""
+    return Theory(
+        clauses=compiled.rbm,
+        props=compiled.props,
+        components=compiled.components,
+        model=compiled.model,
+    )
 
 
 @dataclass(frozen=True, slots=True)

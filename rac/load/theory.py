@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from rac.diagnosis.theory import Theory
+from rac.diagnosis.theory import Theory, theory_of
 from rac.load.files import load_model, read_text
 from rac.load.model_yaml import parse_model_yaml
 from rac.logic import mangle
@@ -18,13 +18,7 @@ def load_theory(path: str) -> Theory:
     # On first use, for start-up time: `racc diagnose model.yaml` never loads the compiler.
     from rac.pipeline import compile_model
 
-    compiled = compile_model(load_model(path))
-    return Theory(
-        clauses=compiled.rbm,
-        props=compiled.props,
-        components=compiled.components,
-        model=compiled.model,
-    )
+    return theory_of(compile_model(load_model(path)))
 
 
 def robot_name(theory: Theory, path: str) -> str:

@@ -6,7 +6,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from rac.diagnosis.theory import Theory
+from rac.diagnosis.theory import Theory, theory_of
 from rac.errors import Diagnostic, RacError
 from rac.load.faults import load_truth
 from rac.load.files import is_file
@@ -27,12 +27,7 @@ class Replayable:
 
 
 def replayable(compiled: Compiled, name: str | None = None) -> Replayable:
-    theory = Theory(
-        clauses=compiled.rbm,
-        props=compiled.props,
-        components=compiled.components,
-        model=compiled.model,
-    )
+    theory = theory_of(compiled)
     return Replayable(name or compiled.model.name.value, compiled.observers, theory)
 
 

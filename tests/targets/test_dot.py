@@ -20,9 +20,9 @@ from rac.commands.reports import (
     COMPILE_ANALYSIS_UP_TO_NODES,
     compile_undetected,
     replay_health,
-    theory_of,
 )
 from rac.diagnosis.modes import MODES
+from rac.diagnosis.theory import theory_of
 from rac.ir import (
     FieldRef,
     Hardware,
