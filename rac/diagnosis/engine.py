@@ -9,6 +9,7 @@ conflicts).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Iterable, Sequence
 
 from rac.diagnosis import dred, support
@@ -61,6 +62,11 @@ class Index:
         self.known = numbering.known
         self.occurs, self.size, self.facts = propagation.occurs, propagation.size, propagation.facts
         self.monotone = propagation.monotone
+
+    @functools.cached_property
+    def sorted_components(self) -> tuple[str, ...]:
+        """COMPS sorted by name: the order of a diagnosis's members."""
+        return tuple(sorted(self.theory.components))
 
     # numbering
 

@@ -29,18 +29,30 @@ class DiagnosisResult:
 compile_theory: ByIdentity[Theory, Index] = ByIdentity(Index)
 
 
-def _ordered(sets: Sequence[frozenset[str]]) -> tuple[tuple[str, ...], ...]:
-    """Each set sorted, fewest members first, then by name: tuples of one size are compared
-    as they are, without a (size, tuple) key per set."""
-    singles = sorted(name for s in sets if len(s) == 1 for name in s)  # strings compared
+def _ordered(
+    sets: Sequence[frozenset[str]], order: Sequence[str], singles: frozenset[str] = frozenset()
+) -> tuple[tuple[str, ...], ...]:
+    """Each set sorted, fewest members first, then by name, with a one-member set for each
+    of ``singles``: tuples of one size are compared as they are, without a (size, tuple)
+    key per set.  ``order`` is every component, sorted."""
+    singles = singles.union(name for s in sets if len(s) == 1 for name in s)
     by_size: dict[int, list[tuple[str, ...]]] = {}
     for s in sets:
         if len(s) != 1:
-            by_size.setdefault(len(s), []).append(tuple(sorted(s)))
-    by_size[1] = [(name,) for name in singles]  # in order already
+            by_size.setdefault(len(s), []).append(_in_order(s, order))
+    by_size[1] = [(name,) for name in _in_order(singles, order)]
     return tuple(
         t for size in sorted(by_size) for t in (by_size[1] if size == 1 else sorted(by_size[size]))
     )
+
+
+def _in_order(names: frozenset[str], order: Sequence[str]) -> tuple[str, ...]:
+    """``tuple(sorted(names))``; for a large share of all components by one pass over them
+    in order (a chain's n single-fault diagnoses, a fan-in's conflict of every component):
+    n look-ups, where the sort compared strings scattered over memory n log n times."""
+    if 4 * len(names) < len(order):
+        return tuple(sorted(names))
+    return tuple(name for name in order if name in names)
 
 
 def is_consistent(theory: Theory, observations: Sequence[Literal], bad: Sequence[str] = ()) -> bool:
@@ -79,7 +91,7 @@ def _diagnose(theory: Theory, observed: Sequence[int], max_card: int | None) -> 
         return DiagnosisResult(False, ((),), (), comps, False)
     full = index.full(base)  # the all-normal closure every candidate is checked against
     strong = HittingSetDag(index, base, full, strong=True).run(max_card)
-    consistent = strong.diagnoses == (frozenset(),)
+    consistent = strong.consistent
     # Definition 3.33's conflicts assume only NAB; with fault-mode rules they come from the
     # weak search (no AB asserted), which is Reiter's monotone setting again.
     weak = (
@@ -90,11 +102,12 @@ def _diagnose(theory: Theory, observed: Sequence[int], max_card: int | None) -> 
     elif weak.bounded:
         conflicts = minimal_sets([nab for nab, ab in weak.conflicts if not ab])
     else:
-        conflicts = transversals(weak.diagnoses)
+        conflicts = transversals(weak.larger, weak.singles)
+    order = index.sorted_components
     return DiagnosisResult(
         consistent=consistent,
-        conflicts=_ordered(conflicts),
-        diagnoses=_ordered(strong.diagnoses),
+        conflicts=_ordered(conflicts, order),
+        diagnoses=_ordered(strong.larger, order, strong.singles),
         components=comps,
         bounded=strong.bounded,
     )

@@ -25,11 +25,18 @@ Conflict = tuple[frozenset[str], frozenset[str]]  # (components assumed NAB, ass
 
 @dataclass(frozen=True, slots=True)
 class Search:
-    """What one hitting-set search found."""
+    """What one hitting-set search found.  The diagnoses of one component are kept as their
+    names, apart from the larger ones: a chain or a fan-in of n components has n of them,
+    and n one-member sets were most of the search's memory traffic at 20,000."""
 
-    diagnoses: tuple[frozenset[str], ...]
+    singles: frozenset[str]  # the components that are a diagnosis alone
+    larger: tuple[frozenset[str], ...]  # the other diagnoses; (frozenset(),) when consistent
     conflicts: tuple[Conflict, ...]
     bounded: bool
+
+    @property
+    def consistent(self) -> bool:
+        return not self.singles and self.larger == (frozenset(),)
 
 
 class HittingSetDag:
@@ -41,6 +48,7 @@ class HittingSetDag:
         self.conflicts: list[Conflict] = []
         # a set of assumption atoms -> those in every contradiction it gives (Index.necessary)
         self.needed_under: dict[frozenset[int], frozenset[int]] = {}
+        self.root_atoms: frozenset[int] | None = None  # the root's label, when read off a trace
 
     def _label(self, delta: frozenset[str]) -> Conflict | None:
         """A minimal conflict inside Δ's assignment, or None when the assignment is consistent."""
@@ -76,7 +84,7 @@ class HittingSetDag:
         if traced is None:
             return None
         atoms = frozenset(traced)
-        self.needed_under[index.nab_atoms] = atoms
+        self.needed_under[index.nab_atoms] = self.root_atoms = atoms
         return atoms
 
     def necessary(self) -> frozenset[str]:
@@ -110,6 +118,8 @@ class HittingSetDag:
         # are the answer, as a candidate's bit is the same in either pass
         # (for Δ = ∅ the set itself: its hash is kept, and it is found by identity)
         needed = self.needed_under.get(frozenset(assumed) if delta else index.nab_atoms)
+        if needed is not None and needed is self.root_atoms:
+            return label[0]  # the root's label is that derivation's assumptions: all needed
         if needed is not None:
             return frozenset(c for c in label[0] if index.nab_id[c] in needed)
         candidates = [index.nab_id[c] for c in sorted(label[0])]
@@ -145,6 +155,12 @@ class HittingSetDag:
                     found.add(delta)
                     continue
                 known = self._consistent_children(delta, label)
+                if not delta and (max_card is None or max_card >= 1):
+                    # the root's children are the label's components alone, and no smaller
+                    # diagnosis can hold one: those known consistent are diagnoses already
+                    found.singles.update(known)
+                    children.update(frozenset((c,)) for c in label[0] if c not in known)
+                    continue
                 for comp in label[0]:
                     child = delta | {comp}
                     children.add(child)
@@ -153,7 +169,9 @@ class HittingSetDag:
             card += 1
             level = children
         bounded = any(not found.covers(child) for child in cut)
-        return Search(tuple(found.all), (*singletons, *self.conflicts), bounded)
+        return Search(
+            frozenset(found.singles), tuple(found.larger), (*singletons, *self.conflicts), bounded
+        )
 
 
 # A node labelled with fewer components has its children checked one by one (each check costs
@@ -162,16 +180,14 @@ _FEW_CHILDREN = 16
 
 
 class _Diagnoses:
-    """The diagnoses found so far, in order, and whether one is inside a candidate: the
-    single-fault ones by a set look-up, not a scan (a chain of n components has n)."""
+    """The diagnoses found so far, and whether one is inside a candidate: the single-fault
+    ones by a set look-up, not a scan (a chain of n components has n)."""
 
     def __init__(self) -> None:
-        self.all: list[frozenset[str]] = []
         self.singles: set[str] = set()
         self.larger: list[frozenset[str]] = []
 
     def add(self, delta: frozenset[str]) -> None:
-        self.all.append(delta)
         if len(delta) == 1:
             self.singles |= delta
         else:
@@ -213,8 +229,11 @@ def minimal_sets(sets: Sequence[frozenset[str]]) -> list[frozenset[str]]:
     return kept
 
 
-def transversals(edges: Sequence[frozenset[str]]) -> list[frozenset[str]]:
-    """All minimal hitting sets of ``edges`` (Berge's incremental algorithm).
+def transversals(
+    edges: Sequence[frozenset[str]], singles: frozenset[str] = frozenset()
+) -> list[frozenset[str]]:
+    """All minimal hitting sets of ``edges`` and of the one-member edges ``{s}`` for each
+    ``s`` in ``singles`` (Berge's incremental algorithm).
 
     Used for duality: the minimal conflicts are the minimal hitting sets of the minimal
     diagnoses, so once every diagnosis is known the conflicts follow without more checks.
@@ -222,7 +241,7 @@ def transversals(edges: Sequence[frozenset[str]]) -> list[frozenset[str]]:
     # A one-element edge is in every hitting set: taken out first, the rest is what Berge's
     # rounds grow (n single-fault diagnoses were n rounds over one growing set: quadratic).
     # An edge holding one of them is hit already; the others join each set at the end.
-    forced = frozenset(e for edge in edges if len(edge) == 1 for e in edge)
+    forced = singles.union(e for edge in edges if len(edge) == 1 for e in edge)
     current: list[frozenset[str]] = [frozenset()]
     for edge in minimal_sets([e for e in edges if len(e) != 1 and e.isdisjoint(forced)]):
         grown: list[frozenset[str]] = []
