@@ -59,7 +59,10 @@ def interpolate(times: npt.NDArray[np.float64], other: TopicTrends) -> tuple[Cod
     before = np.clip(after - 1, 0, other.times.size - 2)
     t0 = other.times[before]
     t1 = other.times[before + 1]
-    frac = (times - t0) / (t1 - t0)
+    # a time inside the span falls strictly between t0 and t1; outside it (overwritten below)
+    # the clipped pair may be two messages of one stamp, whose span of 0 would warn
+    span = t1 - t0
+    frac = (times - t0) / np.where(span > 0, span, 1.0)
     zone = np.searchsorted(_ZONE_EDGES, frac, side="right")
     # TABLE[s(q-), s(q+), zone] through one flat index.
     index = (other.codes[:, before].astype(np.intp) * 3 + other.codes[:, before + 1]) * 4 + zone

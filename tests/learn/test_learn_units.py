@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -88,6 +90,17 @@ def test_interpolation_uses_the_zones_between_neighbours() -> None:
     assert inside == 4
     assert codes[0, 1:5].tolist() == [D, C, C, UP]
     assert codes[0, 0] == codes[0, 5] == 3  # outside the span: never matches
+
+
+def test_interpolation_beyond_a_span_ending_in_two_messages_of_one_stamp_is_quiet() -> None:
+    """The clipped neighbours of a time past the end may share a stamp: no division by zero
+    (numpy's RuntimeWarning is an error here), and the time is outside."""
+    other = _trends("/b", np.array([0.0, 1.0, 1.0]), [[D, UP, UP]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        codes, inside = interpolate(np.array([0.5, 2.0]), other)
+    assert inside == 1
+    assert codes[0].tolist() == [C, 3]
 
 
 def test_pair_matches_counts_both_directions() -> None:
