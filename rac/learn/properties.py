@@ -60,14 +60,19 @@ def csv_rows(text: str, bad: Callable[[int, str], RacError]) -> Iterator[tuple[i
         start = reader.line_num + 1
 
 
-def parse_properties(text: str, path: str) -> dict[str, dict[str, list[float]]]:
-    """node -> property -> samples; empty cells are missing samples."""
+Sample = tuple[float, str, float | None, float | None]  # time, node, cpu, mem
+
+
+def property_rows(text: str, path: str) -> list[Sample]:
+    """The ``time,node,cpu,mem`` rows of a properties CSV in file order, checked (RAC082 at
+    the line): learn and replay read the file through this one reader.  An empty cpu or mem
+    cell is a missing sample (None); blank lines are skipped."""
     bad = properties_error(path)
     rows = csv_rows(text, bad)
     header = next(rows, (1, None))[1]
     if header is None or [h.strip() for h in header] != list(COLUMNS):
         raise bad(1, f"expected the header '{','.join(COLUMNS)}'")
-    samples: dict[str, dict[str, list[float]]] = {}
+    samples: list[Sample] = []
     for line, row in rows:
         if not row or all(not cell.strip() for cell in row):
             continue
@@ -76,17 +81,36 @@ def parse_properties(text: str, path: str) -> dict[str, dict[str, list[float]]]:
         node = row[1].strip().removeprefix("/")
         if not node:
             raise bad(line, "empty node name")
+        t = _number(row[0], "time", line, bad)
+        if t is None:
+            raise bad(line, "empty time")
+        samples.append(
+            (t, node, _number(row[2], "cpu", line, bad), _number(row[3], "mem", line, bad))
+        )
+    return samples
+
+
+def _number(cell: str, what: str, line: int, bad: Callable[[int, str], RacError]) -> float | None:
+    if not cell.strip():
+        return None
+    try:
+        value = float(cell)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value) or value < 0:
+        raise bad(line, f"{what} must be a finite number >= 0, not '{cell.strip()}'")
+    return value
+
+
+def parse_properties(text: str, path: str) -> dict[str, dict[str, list[float]]]:
+    """node -> property -> samples, in file order; empty cells are missing samples."""
+    samples: dict[str, dict[str, list[float]]] = {}
+    for _, node, cpu, mem in property_rows(text, path):
         per_node = samples.setdefault(node, {"cpu": [], "mem": []})
-        for prop, cell in (("cpu", row[2]), ("mem", row[3])):
-            if not cell.strip():
-                continue
-            try:
-                value = float(cell)
-            except ValueError:
-                raise bad(line, f"{prop} '{cell}' is not a number") from None
-            if not math.isfinite(value) or value < 0:
-                raise bad(line, f"{prop} must be a finite number >= 0, not {cell}")
-            per_node[prop].append(value)
+        if cpu is not None:
+            per_node["cpu"].append(cpu)
+        if mem is not None:
+            per_node["mem"].append(mem)
     return samples
 
 

@@ -25,7 +25,6 @@ the observer core takes, with times in seconds from the start of the recording.
 
 from __future__ import annotations
 
-import math
 from collections import Counter
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
@@ -40,7 +39,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from rac.errors import Diagnostic, RacError
 from rac.learn.fields import FieldSelector
-from rac.learn.properties import csv_rows, properties_error
+from rac.learn.properties import Sample, property_rows
 from rac.learn.recording import Run, message_stream
 from rac.learn.stamps import stamp_reader
 from rac.load.bags import MAX_SPAN_S, far_off_stamp, read_run
@@ -62,7 +61,6 @@ LIVENESS_SLACK = 1.5  # a node is running when it has a sample within this many 
 # Liveness is judged this often, as the observer host samples processes live: a vanished
 # process is definite evidence, and the node observer's θ checks take 0.6 s, not θ periods.
 LIVENESS_STEP_S = 0.1
-CSV_COLUMNS = ("time", "node", "cpu", "mem")
 
 
 @dataclass(frozen=True, slots=True)
@@ -428,39 +426,6 @@ def _in_rounds(ts: np.ndarray, rounds: np.ndarray) -> bool:
     return bool(rounds.size) and bool(np.isin(ts, rounds).mean() >= ROUND_SHARE)
 
 
-def parse_samples(text: str, path: str) -> list[tuple[float, str, float | None, float | None]]:
+def parse_samples(text: str, path: str) -> list[Sample]:
     """``time,node,cpu,mem`` rows, sorted by time; empty cpu/mem cells are missing samples."""
-
-    bad = properties_error(path)
-    lines = csv_rows(text, bad)
-    header = next(lines, (1, None))[1]
-    if header is None or [h.strip() for h in header] != list(CSV_COLUMNS):
-        raise bad(1, f"expected the header '{','.join(CSV_COLUMNS)}'")
-    rows: list[tuple[float, str, float | None, float | None]] = []
-    for line, row in lines:
-        if not row or all(not cell.strip() for cell in row):
-            continue
-        if len(row) != len(CSV_COLUMNS):
-            raise bad(line, f"expected {len(CSV_COLUMNS)} columns, found {len(row)}")
-        node = row[1].strip().removeprefix("/")
-        if not node:
-            raise bad(line, "empty node name")
-        t = _number(row[0], "time", line, bad)
-        if t is None:
-            raise bad(line, "empty time")
-        rows.append((t, node, _number(row[2], "cpu", line, bad), _number(row[3], "mem", line, bad)))
-    rows.sort(key=lambda r: r[0])
-    return rows
-
-
-def _number(cell: str, what: str, line: int, bad: object) -> float | None:
-    if not cell.strip():
-        return None
-    try:
-        value = float(cell)
-    except ValueError:
-        value = math.nan
-    if not math.isfinite(value) or value < 0:
-        assert callable(bad)
-        raise bad(line, f"{what} must be a finite number >= 0, not '{cell.strip()}'")
-    return value
+    return sorted(property_rows(text, path), key=lambda r: r[0])
