@@ -78,7 +78,8 @@ def run_observer_node(
     each_tick: Callable[[float], None] | None = None,
 ) -> None:
     """Run the observer host on ``/observations`` until the bus stops: every
-    ``1/sample_hz`` s the machine's racc agent carries out its requests, then
+    ``1/sample_hz`` s the machine's racc agent's reports are logged and go to
+    ``/repair_log`` (its requests are carried out on its own thread), then
     :class:`HostLoop` samples and publishes (on a change, and every ``republish_s``).
     The transport has subscribed ``host`` to its ``topics`` already; ``each_tick`` runs
     first in each tick with the time (ROS 2 subscribes topics as they appear there)."""
@@ -90,12 +91,17 @@ def run_observer_node(
     )
     period = 1.0 / sample_hz
     loop = HostLoop(host, probe, republish_s, Schedule(period_s=period))
+    # the agent reports what its requests came to where the repairer's own steps go
+    agent_log = bus.rows_publisher(REPAIR_LOG, 50, latched=True) if agent is not None else None
     for now in ticks(period, lambda: bus.ok):
         if each_tick is not None:
             each_tick(now)
-        if agent is not None:
-            for level, line in agent.step(host.clock()):
-                bus.log(level, line)
+        if agent is not None and agent_log is not None:
+            reports = agent.reports()
+            for entry in reports:
+                bus.log(entry.level, str(entry))
+            if reports:
+                agent_log([entry.row() for entry in reports])
         step = loop.step(now)
         for line in step.lines:
             bus.log(0, line)

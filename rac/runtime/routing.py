@@ -17,13 +17,15 @@ agent listens to, or a container command that fails, is RAC143.
 
 from __future__ import annotations
 
+import queue
 import shutil
 import subprocess
 import threading
+import time
 from collections.abc import Callable, Mapping, Sequence
 
 from rac.errors import Diagnostic, RacError
-from rac.runtime.repairer import Actuator
+from rac.runtime.repairer import Actuator, LogEntry
 
 AGENT_TOPIC = "/racc_agent/{machine}"
 ACTIONS = ("start_node", "stop_node", "kill_node")
@@ -133,46 +135,77 @@ class RoutedActuator:
 
 
 class Agent:
-    """The racc agent of one machine, in its observer host: requests arrive on any thread
-    and are carried out on the host's own loop (:meth:`step`), where roslaunch may run."""
+    """The racc agent of one machine, in its observer host.  Requests arrive on any thread
+    and are carried out one at a time on the agent's own thread: a ``docker restart`` may
+    take tens of seconds, and the host's sampling loop must not stall meanwhile (a stalled
+    host is starved, then lost, and the repair could not be verified).  What each request
+    came to is a :class:`LogEntry` (``agent``), for the host's log and ``/repair_log``:
+    a failure shows there, not only after the repairer's step time-out."""
 
     def __init__(
         self,
         machine: str,
         placements: Mapping[str, Placement],
         local: Actuator | None,
+        clock: Callable[[], float] = time.time,
     ) -> None:
-        self.machine, self.placements, self.local = machine, placements, local
-        self._queue: list[tuple[str, str]] = []
+        self.machine, self.placements, self.local, self.clock = machine, placements, local, clock
+        self._requests: queue.Queue[tuple[str, str, float]] = queue.Queue()
+        self._reports: list[LogEntry] = []
         self._lock = threading.Lock()
+        self._idle = threading.Condition(self._lock)
+        self._busy = 0  # requests taken and not yet reported
+        self._worker: threading.Thread | None = None
 
     def request(self, action: str, node: str) -> None:
         with self._lock:
-            self._queue.append((action, node))
+            self._busy += 1
+            if self._worker is None:  # daemon: a request under way does not hold the exit
+                self._worker = threading.Thread(target=self._work, name="racc-agent", daemon=True)
+                self._worker.start()
+        self._requests.put((action, node, self.clock()))
 
-    def step(self, t: float) -> list[tuple[int, str]]:
-        """Carry out the requests that came; (level, log line) for each."""
+    def reports(self) -> list[LogEntry]:
+        """What the requests carried out since the last call came to, in order."""
         with self._lock:
-            queue, self._queue = self._queue, []
-        out = []
-        for action, node in queue:
-            out.append(self._carry_out(t, action, node))
-        return out
+            done, self._reports = self._reports, []
+        return done
 
-    def _carry_out(self, t: float, action: str, node: str) -> tuple[int, str]:
+    def wait_idle(self, timeout: float) -> bool:
+        """Wait until every request so far is carried out; False on the time-out."""
+        with self._idle:
+            return self._idle.wait_for(lambda: self._busy == 0, timeout)
+
+    def _work(self) -> None:
+        while True:
+            action, node, asked = self._requests.get()
+            try:
+                entry = self._carry_out(action, node, asked)
+            except Exception as err:  # an actuator's own failure: reported, the agent lives on
+                entry = self._entry(2, action, node, f"failed: {type(err).__name__}: {err}")
+            with self._idle:
+                self._reports.append(entry)
+                self._busy -= 1
+                self._idle.notify_all()
+
+    def _entry(self, level: int, action: str, node: str, outcome: str) -> LogEntry:
+        message = f"{action}({node}) on machine {self.machine}: {outcome}"
+        return LogEntry(self.clock(), level, "agent", node, message)
+
+    def _carry_out(self, action: str, node: str, asked: float) -> LogEntry:
         where, container = self.placements.get(node.strip("/"), (None, None))
-        head = f"t={t:.3f} agent {self.machine}: {action}({node})"
         if action not in ACTIONS:
-            return 1, f"{head} refused: unknown action"
+            return self._entry(1, action, node, "refused: unknown action")
         if where is not None and where != self.machine:
-            return 1, f"{head} refused: '{node}' runs on {where}"
+            return self._entry(1, action, node, f"refused: '{node}' runs on {where}")
         try:
             if container is not None:
                 run_container(action, node, container)
             elif self.local is not None:
                 getattr(self.local, action)(node)
             else:
-                return 2, f"{head} failed: no --launch file to start it from"
+                return self._entry(2, action, node, "failed: no --launch file to start it from")
         except RacError as err:
-            return 2, f"{head} failed: {err.diagnostics[0].code} {err.diagnostics[0].message}"
-        return 0, f"{head} done"
+            first = err.diagnostics[0]
+            return self._entry(2, action, node, f"failed: {first.code} {first.message}")
+        return self._entry(0, action, node, f"done {self.clock() - asked:.2f} s after the request")

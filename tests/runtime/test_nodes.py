@@ -119,6 +119,7 @@ def test_the_observer_node_publishes_runs_its_agent_and_stops_with_the_bus() -> 
     robot = Robot()
     agent = Agent("arm", {"talker": ("arm", None)}, robot)
     agent.request("start_node", "talker")
+    assert agent.wait_idle(10.0)  # carried out on the agent's thread; reported by the loop
     hook_times: list[float] = []
     bus = FakeBus(lambda b: len(hook_times) >= 5)
     probe = ProcessProbe(["talker"], lambda _: None)
@@ -135,11 +136,15 @@ def test_the_observer_node_publishes_runs_its_agent_and_stops_with_the_bus() -> 
     assert len(hook_times) == 5 and hook_times == sorted(hook_times)
     assert hook_times[-1] - hook_times[0] >= 4 / 50.0 * 0.9  # paced at 50 Hz
     assert robot.calls == [("start_node", "talker")]
-    assert bus.latched == {OBSERVATIONS: True}
+    assert bus.latched == {OBSERVATIONS: True, REPAIR_LOG: True}
     assert bus.published[OBSERVATIONS], "the first tick publishes the observation set"
     lines = [text for _, text in bus.logged]
     assert lines[0] == "racc observe: 1 observers, 0 topics, 1 nodes (machine arm)"
-    assert any("agent arm: start_node(talker) done" in line for line in lines), lines
+    assert any(
+        "agent(talker): start_node(talker) on machine arm: done" in line for line in lines
+    ), lines
+    (reported,) = [row for rows in bus.published[REPAIR_LOG] for row in rows]
+    assert (reported.name, reported.hardware_id, reported.level) == ("agent", "talker", 0)
 
 
 class Robot:

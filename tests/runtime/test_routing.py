@@ -5,6 +5,8 @@ rac.runtime.hosts, rac.runtime.routing)."""
 from __future__ import annotations
 
 import os
+import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -127,13 +129,55 @@ def test_the_agent_restarts_only_the_nodes_of_its_machine() -> None:
     agent.request("start_node", "talker")
     agent.request("start_node", "listener")  # runs on base
     agent.request("reboot", "talker")
-    lines = agent.step(1.0)
+    assert agent.wait_idle(5.0)
+    reports = agent.reports()
     assert local.calls == [("start_node", "talker")]
-    assert [level for level, _ in lines] == [0, 1, 1]
-    assert "runs on base" in lines[1][1]
+    assert [(r.level, r.action, r.target) for r in reports] == [
+        (0, "agent", "talker"),
+        (1, "agent", "listener"),
+        (1, "agent", "talker"),
+    ]
+    assert reports[0].message.startswith("start_node(talker) on machine arm: done")
+    assert "runs on base" in reports[1].message
+    assert agent.reports() == []  # each report once
     bare = Agent("arm", node_placements(_compiled().observers), None)
     bare.request("start_node", "talker")
-    assert bare.step(2.0)[0][0] == 2  # no launch file to start it from
+    assert bare.wait_idle(5.0)
+    assert bare.reports()[0].level == 2  # no launch file to start it from
+
+
+def test_the_agents_work_does_not_hold_up_its_host_and_failures_are_reported(
+    tmp_path: Path,
+) -> None:
+    """A slow container command runs on the agent's thread: the host's loop, which drains
+    the reports each tick, gets none meanwhile and is not held up; a failing one is an
+    ERROR report with RAC143, in epoch time like every racc node's log."""
+    gate = threading.Event()
+
+    class Slow(Local):
+        def start_node(self, node: str) -> None:
+            gate.wait(10.0)
+            super().start_node(node)
+
+    local = Slow()
+    agent = Agent("arm", node_placements(_compiled().observers), local)
+    agent.request("start_node", "talker")
+    began = time.monotonic()
+    assert agent.reports() == []
+    assert not agent.wait_idle(0.2)
+    assert time.monotonic() - began < 1.0
+    gate.set()
+    assert agent.wait_idle(5.0)
+    (done,) = agent.reports()
+    assert done.level == 0 and abs(done.t - time.time()) < 5.0
+    _fake_runtime(tmp_path, "failing", code=1)
+    placements = {"talker": ("arm", f"{tmp_path / 'failing'}:cam")}
+    failing = Agent("arm", placements, None)
+    failing.request("start_node", "talker")
+    assert failing.wait_idle(10.0)
+    (failed,) = failing.reports()
+    assert failed.level == 2 and "failed: RAC143" in failed.message
+    assert failed.row().name == "agent" and failed.row().hardware_id == "talker"
 
 
 def test_a_lost_host_has_its_atoms_unknown(tmp_path: Path) -> None:
