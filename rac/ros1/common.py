@@ -15,6 +15,7 @@ from urllib.parse import urlparse
 
 from rac.errors import Diagnostic, RacError
 from rac.runtime.placement import Found, prove_ros1
+from rac.runtime.procs import UNANSWERED
 from rac.runtime.status import Row, rows_from_array
 
 CALLER = "/racc"
@@ -113,11 +114,21 @@ def resolve_pid(node: str) -> Found | None:
     there (unregistered, or its server does not answer getPid); else the pid it answered
     when that process is proven to be the node's (:func:`rac.runtime.placement.prove_ros1`),
     or no pid (another machine, another PID namespace: watched through the master)."""
+    found = node_liveness(node)
+    return None if isinstance(found, int) else found
+
+
+def node_liveness(node: str) -> Found | int | None:
+    """:func:`resolve_pid` for the observer host, which tells a server that refuses the
+    connection or denies the node (it is gone) from one that does not answer within
+    ``XMLRPC_TIMEOUT_S`` (``UNANSWERED``: a node busy on a loaded machine, or frozen)."""
     try:
         uri = node_uri(node)
         if uri is None:
             return None
         code, _, pid = proxy(uri).getPid(CALLER)
+    except TimeoutError:
+        return UNANSWERED
     except (OSError, xmlrpc.client.Error):
         return None
     if code != 1:

@@ -11,7 +11,7 @@ from typing import Any
 
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec
 from rac.ros1.agent import start_agent
-from rac.ros1.common import Ros1Bus, connection_type, resolve_pid
+from rac.ros1.common import Ros1Bus, connection_type, node_liveness
 from rac.runtime.host import ObserverHost
 from rac.runtime.nodes import run_observer_node
 from rac.runtime.procs import ProcessProbe
@@ -52,7 +52,7 @@ def run_observe(
         rospy.Subscriber(
             BOARD_TOPIC, DiagnosticArray, lambda a: host.channel_rows(rows_from_array(a))
         )
-    probe = ProcessProbe(bank.nodes, resolve_pid, bank.properties)
+    probe = ProcessProbe(bank.nodes, node_liveness, bank.properties)
     run_observer_node(
         bus,
         host,

@@ -27,6 +27,10 @@ from rac.observe import Event, NodeSample, PropertySample
 from rac.runtime.placement import Found
 
 REMOTE = -1
+# The middleware did not answer in time (ROS 1: getPid or the master's lookupNode timed
+# out): a busy node, not a dead one, until it has been so for UNANSWERED_HOLD_S.
+UNANSWERED = -2
+UNANSWERED_HOLD_S = 2.0
 Resolved = int | Found | None
 
 
@@ -34,6 +38,8 @@ def as_found(resolved: Resolved) -> Found | None:
     """A resolver's answer as a :class:`Found` (a bare pid is taken as proven)."""
     if resolved is None or isinstance(resolved, Found):
         return resolved
+    if resolved == UNANSWERED:  # nothing learnt (ProcessProbe._ask holds the last answer)
+        return None
     if resolved == REMOTE:
         return Found(None, "on another machine")
     return Found(resolved, f"pid {resolved}")
@@ -59,6 +65,7 @@ class ProcessProbe:
         self._procs: dict[str, psutil.Process] = {}
         self._asked: dict[str, float] = {}  # when the middleware was last asked
         self._alive: dict[str, bool] = {}
+        self._unanswered: dict[str, float] = {}  # since when the middleware has not answered
         self.placement: dict[str, Found] = {}  # how each node is watched, as last resolved
         self._moved: list[tuple[str, Found]] = []  # placements changed since last taken
 
@@ -90,11 +97,22 @@ class ProcessProbe:
         return None
 
     def _ask(self, node: str, t: float) -> bool | None:
-        """Ask the middleware (at most every ``resolve_every_s``); None: not asked now."""
+        """Ask the middleware (at most every ``resolve_every_s``); None: not asked now, or
+        not answered in time, which leaves the last answer standing for up to
+        ``UNANSWERED_HOLD_S`` (like a liveness probe's failure threshold: one slow answer
+        of a node on a loaded machine is no crash); then the node counts as not running."""
         if t - self._asked.get(node, float("-inf")) < self.resolve_every_s:
             return None
         self._asked[node] = t
-        found = as_found(self.resolve(node))
+        resolved = self.resolve(node)
+        if isinstance(resolved, int) and resolved == UNANSWERED:
+            last = self.placement.get(node)
+            if last is not None and last.pid is not None:
+                return False  # its proven process is gone: no answer brings it back
+            since = self._unanswered.setdefault(node, t)
+            return None if t - since < UNANSWERED_HOLD_S else False
+        self._unanswered.pop(node, None)
+        found = as_found(resolved)
         if found is None:
             return False
         if found.pid is not None:

@@ -34,7 +34,7 @@ from rac.runtime.placement import (
     prove_by_cmdline,
     prove_ros1,
 )
-from rac.runtime.procs import ProcessProbe
+from rac.runtime.procs import UNANSWERED, UNANSWERED_HOLD_S, ProcessProbe, Resolved
 from rac.runtime.status import STALE, row_unknown, row_verdict, unknown_row
 
 SPECS = (
@@ -170,6 +170,67 @@ def test_a_node_watched_through_the_middleware_has_no_properties() -> None:
     assert [type(e) for e in events] == [NodeSample]
     assert not any(isinstance(e, PropertySample) for e in probe.sample(1.0))
     assert [(n, f.watched) for n, f in probe.take_placements()] == [("talker", "middleware")]
+
+
+def test_a_slow_answer_is_no_crash_but_a_long_silence_is() -> None:
+    """A middleware-watched node that does not answer in time (a busy node on a loaded
+    machine) keeps its last answer for UNANSWERED_HOLD_S; one that stays silent longer,
+    or refuses (gone), is not running."""
+    answers: list[Resolved] = [Found(None, "in a container")]
+    probe = ProcessProbe(["talker"], lambda n: answers[0], resolve_every_s=0.5)
+
+    def running(t: float) -> bool:
+        (sample,) = [e for e in probe.sample(t) if isinstance(e, NodeSample)]
+        return sample.running
+
+    assert running(0.0)
+    answers[0] = UNANSWERED
+    assert all(running(t / 10) for t in range(5, 5 + int(UNANSWERED_HOLD_S * 10)))
+    assert not running(0.5 + UNANSWERED_HOLD_S)  # silent since 0.5 s: taken for gone
+    answers[0] = Found(None, "in a container")
+    assert running(3.5)  # answers again
+    answers[0] = UNANSWERED
+    assert running(4.0)  # the hold starts afresh
+    answers[0] = None  # refused: gone at once
+    assert not running(4.5)
+    # A node whose proven process has gone is not running, answer or none.
+    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+    answers[0] = Found(child.pid, "mine")
+    assert running(5.0)
+    child.kill()
+    child.wait(5)
+    answers[0] = UNANSWERED
+    assert not running(5.5)
+
+
+def test_getpid_that_times_out_is_unanswered_and_a_refused_one_is_gone(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """ROS 1's liveness ask tells a node's XML-RPC server that accepts and never answers
+    (XMLRPC_TIMEOUT_S) from a port nobody listens on."""
+    from rac.ros1 import common
+
+    mute = socket.socket()
+    mute.bind(("127.0.0.1", 0))
+    mute.listen(4)  # the connection is accepted by the kernel; no answer ever comes
+    closed = socket.socket()
+    closed.bind(("127.0.0.1", 0))
+    closed_port = closed.getsockname()[1]
+    closed.close()
+    try:
+        uri = {
+            "mute": f"http://127.0.0.1:{mute.getsockname()[1]}/",
+            "gone": f"http://127.0.0.1:{closed_port}/",
+        }
+        monkeypatch.setattr(common, "node_uri", lambda node: uri.get(node))
+        began = time.monotonic()
+        assert common.node_liveness("mute") == UNANSWERED
+        assert time.monotonic() - began < common.XMLRPC_TIMEOUT_S + 1.0
+        assert common.resolve_pid("mute") is None  # the repairer's reading is unchanged
+        assert common.node_liveness("gone") is None
+        assert common.node_liveness("unregistered") is None
+    finally:
+        mute.close()
 
 
 def test_a_trusted_node_has_properties() -> None:
