@@ -25,6 +25,7 @@ import re
 import shutil
 import signal
 import subprocess
+import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -186,11 +187,17 @@ class LiveRobot:
         return up
 
     def launch_runtime(
-        self, demo: Demo | None, board: bool = True, build: Path | None = None, log: str = "runtime"
+        self,
+        demo: Demo | None,
+        board: bool = True,
+        build: Path | None = None,
+        log: str = "runtime",
+        mode: str = "act",
     ) -> list[subprocess.Popen[bytes]]:
-        """The compiled runtime (``build``, the test's by default) for ``demo``'s robot."""
+        """The compiled runtime (``build``, the test's by default) for ``demo``'s robot, its
+        repair engine in ``mode`` (act, advise or dry-run)."""
         build = build or self.build
-        arguments = {}
+        arguments = {"repair_mode": mode}
         if demo is not None:
             arguments["robot_launch"] = str(demo.directory / self.ros.robot_launch)
             if board:
@@ -203,6 +210,16 @@ class LiveRobot:
         entries = load_launch(build / "observers.launch.xml", arguments)
         assert {e.executable for e in entries} >= {"observe", "engine", "repairer"}
         return [self.procs.start(command_line(e), f"{log}_{e.name}.log") for e in entries]
+
+    def publish_text(self, topic: str, text: str) -> None:
+        """One ``std_msgs/String`` on ``topic``, as an operator would send it (ROS 1:
+        ``rostopic pub``; ROS 2, which has no CLI here: a few lines of rclpy), waiting for
+        a subscriber first."""
+        if self.ros.version == 1:
+            command = ["rostopic", "pub", "-1", topic, "std_msgs/String", f"data: '{text}'"]
+        else:
+            command = [sys.executable, "-c", _RCLPY_PUBLISH, topic, text]
+        subprocess.run(command, check=True, env=self.env, timeout=60, capture_output=True)
 
     def stop(self, *procs: subprocess.Popen[bytes]) -> None:
         """SIGINT (roslaunch ends its nodes), SIGKILL of the group after 20 s."""
@@ -220,6 +237,26 @@ class LiveRobot:
         racc (docs/runtime.md), so the test stops them by the pid /repair_log gives."""
         for pid in started_pids(self.watch):
             stop_session(pid)
+
+
+_RCLPY_PUBLISH = """
+import sys, time
+import rclpy
+from std_msgs.msg import String
+rclpy.init()
+node = rclpy.create_node("racc_test_operator")
+pub = node.create_publisher(String, sys.argv[1], 5)
+deadline = time.time() + 20
+while pub.get_subscription_count() == 0 and time.time() < deadline:
+    rclpy.spin_once(node, timeout_sec=0.1)
+assert pub.get_subscription_count() > 0, "nobody subscribes " + sys.argv[1]
+pub.publish(String(data=sys.argv[2]))
+end = time.time() + 1.0
+while time.time() < end:
+    rclpy.spin_once(node, timeout_sec=0.1)
+node.destroy_node()
+rclpy.shutdown()
+"""
 
 
 @contextmanager

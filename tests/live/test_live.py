@@ -9,6 +9,7 @@ are the issues' bounds.
 
 from __future__ import annotations
 
+import re
 import subprocess
 import time
 
@@ -23,7 +24,7 @@ from live_harness import (
     pid_alive,
     started_pids,
 )
-from soak_support import all_ok_since, named_since
+from soak_support import all_ok_since, logged_done, named_since
 
 # Fault times, seconds after the runtime is seen (``KIND@+T``, issue 26 item 6): the demo's
 # nodes take from 5 s to over 20 s to come up on a loaded machine, and the runtime's
@@ -299,4 +300,42 @@ def test_a_frozen_node_is_killed_after_the_step_timeout_and_restarted(robot: Liv
     finally:
         if frozen is not None and frozen.is_running():
             frozen.resume()
+        robot.stop_scene(demo, runtime)
+
+
+def test_an_advised_plan_waits_for_the_operators_confirmation(robot: LiveRobot) -> None:
+    # Advisory mode (issue 22, goal 4), the way many operators run racc first: a crash
+    # gives a plan on /repair_log ("advise") and nothing is done until an operator
+    # publishes the plan's id on /racc_repairer/confirm; then it is executed.
+    watch = robot.watch
+    crash_at = 15.0
+    demo = robot.start_demo("demo6", [f"crash@+{crash_at:g}:imu_node"])
+    runtime: list[subprocess.Popen[bytes]] = []
+    try:
+        robot.wait_demo(60)
+        runtime = robot.launch_runtime(demo, board=False, mode="advise")
+        crash = runtime_seen() + crash_at
+
+        def advised() -> float | None:
+            rows = watch.since(crash)
+            return next((t for t, a, _, _, m in rows if a == "advise" and "waiting" in m), None)
+
+        at = watch.wait(advised, crash - time.time() + 20)
+        assert at is not None, f"no plan advised: {watch.since(crash)}"
+        time.sleep(8.0)  # longer than confirmation and a step: an acting engine would have
+        acted = [r for r in watch.since(crash) if r[1] in ("plan", "stop_node", "start_node")]
+        assert not acted, acted
+        message = next(m for t, a, _, _, m in watch.since(crash) if a == "advise" and t == at)
+        found = re.search(r"publish the id (\d+)", message)
+        assert found is not None, message
+        robot.publish_text("/racc_repairer/confirm", found.group(1))
+        deadline = time.time() + 30
+        while time.time() < deadline and logged_done(watch, at, "start_node", "imu_node") is None:
+            time.sleep(0.2)
+        done = logged_done(watch, at, "start_node", "imu_node")
+        confirmed = [r for r in watch.since(at) if r[1] == "confirm"]
+        assert confirmed and "confirmed by an operator" in confirmed[0][4], confirmed
+        assert done is not None, watch.since(at)
+        print(f"\nadvised {at - crash:.2f} s after the crash; restarted {done - at:.2f} s after")
+    finally:
         robot.stop_scene(demo, runtime)
