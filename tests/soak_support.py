@@ -206,6 +206,35 @@ def plans(watch: Watch, start: float, end: float) -> list[LogRow]:
         return [r for r in watch.repair_log if start <= r[0] < end and r[1] in acting]
 
 
+@dataclass
+class Soak:
+    """What a healthy soak under load came to (:func:`soak_under_load`)."""
+
+    start: float
+    end: float
+    acted: list[LogRow]  # plans and actions from ``acted_since``
+    episodes: list[tuple[float, list[str]]]
+
+
+def soak_under_load(
+    procs: Processes, watch: Watch, load: int, seconds: float, name: str, acted_since: float
+) -> Soak:
+    """``seconds`` of stress-ng at ``load`` % on both cores with nothing wrong; the plans
+    made since ``acted_since`` (bring-up included when it is the launch) and the diagnosis
+    episodes of the soak, printed (``-s``) under ``name``."""
+    with cpu_load(procs, load):
+        start = time.time()
+        time.sleep(seconds)
+        end = time.time()
+    soak = Soak(start, end, plans(watch, acted_since, end), episodes(watch, start, end))
+    shown = [(round(t - start, 1), d) for t, d in soak.episodes]
+    print(f"\n{name}: soak {seconds:g} s at {load} % load on both cores")
+    print(f"  repair: {shown_plans(soak.acted, acted_since)}")
+    print(f"  diagnosis episodes: {len(soak.episodes)} {shown}")
+    print(f"  observations turned negative: {flips(watch, start, end)}")
+    return soak
+
+
 def named_since(watch: Watch, after: float, component: str) -> Callable[[], float | None]:
     """First time after ``after`` that a diagnosis names ``component``."""
 

@@ -13,7 +13,7 @@ import time
 
 import pytest
 from live_harness import LiveRobot
-from soak_support import all_ok_since, cpu_load, episodes, flips, plans, shown_plans
+from soak_support import all_ok_since, plans, shown_plans, soak_under_load
 
 SOAK_SECONDS = 90.0
 SOAK_LOAD = 70
@@ -33,17 +33,38 @@ def test_demo_robot_soak_under_load_repairs_nothing(robot: LiveRobot) -> None:
         ok = watch.wait(all_ok_since(watch, launched, robot.atoms), 30)
         name = f"tedusar ({robot.ros.id})"
         print(f"\n{name}: all ok after {ok - launched:.2f} s" if ok else f"\n{name}: never all ok")
-        with cpu_load(robot.procs, SOAK_LOAD):
-            start = time.time()
-            time.sleep(SOAK_SECONDS)
-            end = time.time()
-        acted = plans(watch, launched, end)
-        found = episodes(watch, start, end)
-        print(f"tedusar soak {SOAK_SECONDS:g} s at {SOAK_LOAD} % load, bring-up included:")
-        print(f"  repair: {shown_plans(acted, launched)}")
-        print(f"  diagnosis episodes: {len(found)} {[(round(t - start, 1), d) for t, d in found]}")
-        print(f"  observations turned negative: {flips(watch, start, end)}")
-        assert not acted, "the repairer acted on the healthy demo robot"
+        soak = soak_under_load(
+            robot.procs, watch, SOAK_LOAD, SOAK_SECONDS, f"{name}, bring-up included", launched
+        )
+        assert not soak.acted, "the repairer acted on the healthy demo robot"
+    finally:
+        robot.stop(*runtime)
+        robot.stop(demo.proc)
+
+
+BRING_UP_SECONDS = 60.0
+
+
+def test_robot_and_runtime_started_together_repair_nothing(robot: LiveRobot) -> None:
+    # At bring-up on ROS 2 the repairer "repaired" joy_node and jaguar_teleop_node, which
+    # had simply not started yet: the runtime is launched here with the robot, not after
+    # it, and a node never seen running has the bring-up grace (--startup-grace, 30 s).
+    watch = robot.watch
+    launched = time.time()
+    demo = robot.start_demo("together")
+    runtime = robot.launch_runtime(demo)
+    try:
+        ok = watch.wait(all_ok_since(watch, launched, robot.atoms), BRING_UP_SECONDS)
+        time.sleep(max(0.0, launched + BRING_UP_SECONDS - time.time()))
+        acted = plans(watch, launched, time.time())
+        name = f"tedusar ({robot.ros.id})"
+        print(
+            f"\n{name}, robot and runtime started together: "
+            + (f"all ok after {ok - launched:.2f} s" if ok else "never all ok")
+            + f"; repair: {shown_plans(acted, launched)}"
+        )
+        assert not acted, "the repairer acted while the robot came up"
+        assert ok is not None, "the robot never came up whole"
     finally:
         robot.stop(*runtime)
         robot.stop(demo.proc)
