@@ -47,9 +47,15 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests" / "ros1"))
 
-from real_graph import MODEL, NODES, Graph, real_graph, stop_robot_and_runtime  # noqa: E402
+from real_graph import (  # noqa: E402
+    MODEL,
+    NODES,
+    Graph,
+    learn_model,
+    real_graph,
+    stop_robot_and_runtime,
+)
 from soak_support import (  # noqa: E402
-    RACC,
     all_ok_since,
     cpu_load,
     episodes,
@@ -214,44 +220,6 @@ def faults(
                     figures.recovered.append(back - at)
     finally:
         stop_robot_and_runtime(graph, *procs)
-
-
-def learn_model(graph: Graph, seconds: int) -> Path:
-    """``racc record`` of the running graph, then ``racc learn`` (today's learner)."""
-    robot = graph.start_robot("learn_robot.log")
-    try:
-        graph.wait_nodes(("jackal_player", "pr2_player", "robot_state_publisher"), 30)
-        time.sleep(3.0)
-        bag = graph.tmp / "learn.bag"
-        progress(f"racc record for {seconds} s")
-        subprocess.run(
-            [*RACC, "record", "-o", str(bag), "--duration", str(seconds), "-q"],
-            check=True,
-            env=graph.env,
-            timeout=seconds + 120,
-        )
-    finally:
-        stop_robot_and_runtime(graph, robot)
-    learned = graph.tmp / "learned.ram"
-    progress("racc learn")
-    subprocess.run(
-        [
-            *RACC,
-            "learn",
-            str(bag),
-            "--graph",
-            str(graph.tmp / "learn.graph.yaml"),
-            "--properties",
-            str(graph.tmp / "learn.properties.csv"),
-            "-o",
-            str(learned),
-            "-q",
-        ],
-        check=True,
-        env=graph.env,
-        timeout=600,
-    )
-    return learned
 
 
 def keep(tmp: Path, into: Path) -> None:
@@ -429,7 +397,7 @@ def main() -> None:
                 soaks.append(soak(graph, name, load, args.seconds, args.settle))
             faults(graph, kinds, args.repeats, args.settle, fault_figures)
             if args.learn:
-                learned = learn_model(graph, args.learn)
+                learned = learn_model(graph, args.learn, progress)
                 if args.keep_learned:
                     keep(graph.tmp, args.keep_learned)
                 graph.use_model(learned, "learned_build")

@@ -18,7 +18,7 @@ import subprocess
 import sys
 import time
 import xmlrpc.client
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -211,3 +211,44 @@ def stop_robot_and_runtime(graph: Graph, *procs: subprocess.Popen[bytes]) -> Non
         graph.procs.procs.remove(proc)
     for pid in graph.registered_pids():
         kill_pid(pid)
+
+
+def learn_model(
+    graph: Graph, seconds: int, progress: Callable[[str], None] = lambda message: None
+) -> Path:
+    """``racc record`` of the graph for ``seconds``, then ``racc learn``: a model of it as a
+    user would learn one (bench/soak.py --learn, test_real_graph_learned.py)."""
+    robot = graph.start_robot("learn_robot.log")
+    try:
+        graph.wait_nodes(("jackal_player", "pr2_player", "robot_state_publisher"), 30)
+        time.sleep(3.0)
+        bag = graph.tmp / "learn.bag"
+        progress(f"racc record for {seconds} s")
+        subprocess.run(
+            [*RACC, "record", "-o", str(bag), "--duration", str(seconds), "-q"],
+            check=True,
+            env=graph.env,
+            timeout=seconds + 120,
+        )
+    finally:
+        stop_robot_and_runtime(graph, robot)
+    learned = graph.tmp / "learned.ram"
+    progress("racc learn")
+    subprocess.run(
+        [
+            *RACC,
+            "learn",
+            str(bag),
+            "--graph",
+            str(graph.tmp / "learn.graph.yaml"),
+            "--properties",
+            str(graph.tmp / "learn.properties.csv"),
+            "-o",
+            str(learned),
+            "-q",
+        ],
+        check=True,
+        env=graph.env,
+        timeout=600,
+    )
+    return learned

@@ -40,13 +40,12 @@ for tool in REQUIRED:
 from real_graph import MODEL, Graph, real_graph  # noqa: E402
 from soak_support import (  # noqa: E402
     all_ok_since,
-    cpu_load,
-    episodes,
     flips,
     logged_done,
     named_since,
     plans,
     shown_plans,
+    soak_under_load,
 )
 
 SOAK_SECONDS = 90.0
@@ -89,18 +88,11 @@ def test_healthy_soak_under_load(running: Running) -> None:
     graph = running.graph
     ok = graph.watch.wait(all_ok_since(graph.watch, time.time(), graph.atoms), 20)
     print("\nbefore the soak: " + ("every observation ok" if ok else "never every observation ok"))
-    with cpu_load(graph.procs, SOAK_LOAD):
-        start = time.time()
-        time.sleep(SOAK_SECONDS)
-        end = time.time()
-    acted = plans(graph.watch, start, end)
-    found = episodes(graph.watch, start, end)
-    print(f"\nsoak {SOAK_SECONDS:g} s at {SOAK_LOAD} % load on both cores:")
-    print(f"  repair: {shown_plans(acted, start)}")
-    print(f"  diagnosis episodes: {len(found)} {[(round(t - start, 1), d) for t, d in found]}")
-    print(f"  observations turned negative: {flips(graph.watch, start, end)}")
-    assert not acted, "the repairer acted on a healthy graph"
-    assert len(found) <= 1
+    soak = soak_under_load(
+        graph.procs, graph.watch, SOAK_LOAD, SOAK_SECONDS, "real graph", time.time()
+    )
+    assert not soak.acted, "the repairer acted on a healthy graph"
+    assert len(soak.episodes) <= 1
 
 
 def test_killed_relay_is_diagnosed_and_restarted(running: Running) -> None:
