@@ -292,7 +292,15 @@ def test_a_frozen_node_is_killed_after_the_step_timeout_and_restarted(robot: Liv
                 if t >= frozen_at and hw == "hokuyo_node"
             ]
         print(f"\nfrozen hokuyo_node: {steps}")
-        assert logged(watch, frozen_at, "start_node", "hokuyo_node"), steps
+        if not logged(watch, frozen_at, "start_node", "hokuyo_node"):
+            with watch.lock:
+                since = [(round(t - frozen_at, 2), *rest) for t, *rest in watch.repair_log]
+                found = [(round(t - frozen_at, 2), d) for t, d in watch.diagnosis]
+                status = [(round(t - frozen_at, 2), m) for t, _, m, _ in watch.repairer]
+            raise AssertionError(
+                f"not restarted: repair log {since[-12:]}; diagnoses {found[-8:]};"
+                f" repairer {status[-4:]}"
+            )
         asked = next(t for t, a, m in steps if a == "stop_node" and "attempt 1" in m)
         killed = next(t for t, a, m in steps if a == "stop_node" and "killed" in m)
         assert 4.9 <= killed - asked <= 7.0, steps  # a full step time-out, then the kill

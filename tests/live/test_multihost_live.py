@@ -229,8 +229,23 @@ def test_a_node_on_a_second_host_is_observed_and_repaired_there(
 
         named = monitor.wait(diagnosed, 10)
         assert named is not None, "the crash on the second host was not diagnosed"
-        done = second.wait_line("agent second: start_node(talker) done", 20, crash)
+        # the agent's report of the request, in its host's log (and on /repair_log)
+        done = second.wait_line(
+            "agent(talker): start_node(talker) on machine second: done", 20, crash
+        )
         assert done is not None, second.text() + "\n" + repairer.text()
+        reported = monitor.wait(
+            lambda: next(
+                (
+                    t
+                    for t, rows in _messages(monitor, "/repair_log", crash)
+                    if any(r[0] == "agent" and r[1] == 0 and r[3] == "talker" for r in rows)
+                ),
+                None,
+            ),
+            5,
+        )
+        assert reported is not None, "the agent's report is not on /repair_log"
         back = monitor.wait(lambda: _row(monitor, "running(talker)", named, 0), chat.back_s)
         assert back is not None, "the talker did not come back"
         # Restarted on the second machine: its new process is in that namespace.
