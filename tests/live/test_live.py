@@ -12,6 +12,7 @@ from __future__ import annotations
 import re
 import subprocess
 import time
+from functools import partial
 
 import psutil
 from live_harness import (
@@ -24,7 +25,7 @@ from live_harness import (
     pid_alive,
     started_pids,
 )
-from soak_support import all_ok_since, logged_done, named_since
+from soak_support import LogRow, Watch, all_ok_since, logged_done, named_since
 
 # Fault times, seconds after the runtime is seen (``KIND@+T``, issue 26 item 6): the demo's
 # nodes take from 5 s to over 20 s to come up on a loaded machine, and the runtime's
@@ -311,10 +312,17 @@ def test_a_frozen_node_is_killed_after_the_step_timeout_and_restarted(robot: Liv
         robot.stop_scene(demo, runtime)
 
 
+def first_confirm_reply(watch: Watch, after: float) -> float | None:
+    """When the repairer first answered a confirmation after ``after``."""
+    return next((r[0] for r in watch.since(after) if r[1] == "confirm"), None)
+
+
 def test_an_advised_plan_waits_for_the_operators_confirmation(robot: LiveRobot) -> None:
     # Advisory mode (issue 22, goal 4), the way many operators run racc first: a crash
     # gives a plan on /repair_log ("advise") and nothing is done until an operator
-    # publishes the plan's id on /racc_repairer/confirm; then it is executed.
+    # publishes the plan's id on /racc_repairer/confirm; then it is executed.  A plan whose
+    # diagnosis changes while it waits is withdrawn and the next one advised: the operator
+    # confirms the one pending, as someone reading /repair_plan would.
     watch = robot.watch
     crash_at = 15.0
     demo = robot.start_demo("demo6", [f"crash@+{crash_at:g}:imu_node"])
@@ -324,26 +332,48 @@ def test_an_advised_plan_waits_for_the_operators_confirmation(robot: LiveRobot) 
         runtime = robot.launch_runtime(demo, board=False, mode="advise")
         crash = runtime_seen() + crash_at
 
-        def advised() -> float | None:
-            rows = watch.since(crash)
-            return next((t for t, a, _, _, m in rows if a == "advise" and "waiting" in m), None)
+        def pending() -> tuple[float, str] | None:
+            """The plan awaiting confirmation: the last one advised, unless withdrawn."""
+            waiting: tuple[float, str] | None = None
+            for t, action, _, _, message in watch.since(crash):
+                found = re.search(r"publish the id (\d+)", message)
+                if action == "advise" and found is not None:
+                    waiting = (t, found.group(1))
+                elif action == "advise" and "withdrawn" in message:
+                    waiting = None
+            return waiting
 
-        at = watch.wait(advised, crash - time.time() + 20)
+        def pending_since() -> float | None:
+            plan = pending()
+            return plan[0] if plan is not None else None
+
+        at = watch.wait(pending_since, crash - time.time() + 20)
         assert at is not None, f"no plan advised: {watch.since(crash)}"
         time.sleep(8.0)  # longer than confirmation and a step: an acting engine would have
         acted = [r for r in watch.since(crash) if r[1] in ("plan", "stop_node", "start_node")]
         assert not acted, acted
-        message = next(m for t, a, _, _, m in watch.since(crash) if a == "advise" and t == at)
-        found = re.search(r"publish the id (\d+)", message)
-        assert found is not None, message
-        robot.publish_text("/racc_repairer/confirm", found.group(1))
+        confirmed: list[LogRow] = []
+        for _ in range(3):
+            if watch.wait(pending_since, 20) is None:
+                break
+            plan = pending()
+            assert plan is not None
+            sent = time.time()
+            robot.publish_text("/racc_repairer/confirm", plan[1])
+            watch.wait(partial(first_confirm_reply, watch, sent), 15)
+            confirmed = [r for r in watch.since(sent) if r[1] == "confirm"]
+            if confirmed and "confirmed by an operator" in confirmed[0][4]:
+                break
+        assert confirmed and "confirmed by an operator" in confirmed[0][4], watch.since(crash)
         deadline = time.time() + 30
         while time.time() < deadline and logged_done(watch, at, "start_node", "imu_node") is None:
             time.sleep(0.2)
         done = logged_done(watch, at, "start_node", "imu_node")
-        confirmed = [r for r in watch.since(at) if r[1] == "confirm"]
-        assert confirmed and "confirmed by an operator" in confirmed[0][4], confirmed
         assert done is not None, watch.since(at)
-        print(f"\nadvised {at - crash:.2f} s after the crash; restarted {done - at:.2f} s after")
+        withdrawn = [r for r in watch.since(crash) if r[1] == "advise" and "withdrawn" in r[4]]
+        print(
+            f"\nadvised {at - crash:.2f} s after the crash; restarted {done - at:.2f} s after"
+            f" ({len(withdrawn)} plan(s) withdrawn while waiting)"
+        )
     finally:
         robot.stop_scene(demo, runtime)
