@@ -24,19 +24,21 @@ Then the scaling of two shapes whose answer grows with the model (issue 27), at 
   single-fault diagnoses;
 
 each diagnosed in full and up to cardinality 2, with the 20k/1k ratio of each time (linear
-is 20), in CPU time of this process.  The chain took 296 s at 20k (a consistency check per
-candidate, each as long as the chain).
+is 20): the least CPU time of this process over at least ``--repeat`` runs and ``--seconds``
+of runs per figure, the sizes taking turns (see ``best_times``).  The chain took 296 s at
+20k (a consistency check per candidate, each as long as the chain).
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 import os
 import random
 import statistics
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -185,29 +187,58 @@ def scaling_case(shape: str, n: int) -> tuple[Theory, list[Any]]:
     return theory, [Literal(Atom("ok", (s,)), positive) for s, positive in observed]
 
 
-def measure_scaling(sizes: list[int], repeat: int) -> None:
+def best_times(
+    actions: Sequence[Callable[[], object]], repeat: int, seconds: float
+) -> list[tuple[float, int]]:
+    """The least CPU time in ms of each action, and its number of runs: each runs at least
+    ``repeat`` times and for at least ``seconds`` in all, in turns of 0.1 s each.
+
+    Every size gets the same time, spread over the same stretch of the clock, to meet a
+    quiet moment: with a fixed count run size after size, a 2 ms case had 30 ms to do so
+    and a 50 ms one 0.75 s, one of them could fall wholly into a busy spell of the
+    neighbours' (seconds long on a shared machine), and the ratio moved from run to run.
+    """
+    times: list[list[float]] = [[] for _ in actions]
+    spent = [0.0] * len(actions)
+    while any(len(t) < repeat or s < seconds for t, s in zip(times, spent, strict=True)):
+        for k, action in enumerate(actions):
+            turn = 0.0
+            while turn < min(0.1, seconds) or not times[k]:
+                start = time.process_time()  # CPU time: the wait for a core is not the code's
+                result = action()
+                took = time.process_time() - start
+                del result
+                times[k].append(took)
+                turn += took
+            spent[k] += turn
+    return [(min(t) * 1000, len(t)) for t in times]
+
+
+def measure_scaling(sizes: list[int], repeat: int, seconds: float) -> None:
     """Chain and fan-in: diagnosis time per size, and the last size's ratio to the first."""
     rows: dict[str, list[float]] = {}
     for shape in ("chain", "fan-in"):
-        for n in sizes:
-            theory, observed = scaling_case(shape, n)
+        cases = [scaling_case(shape, n) for n in sizes]
+        for n, (theory, observed) in zip(sizes, cases, strict=True):
             compile_theory(theory)  # the index is built once per model, not per diagnosis
             found = diagnose(theory, observed)
             expected = n if shape == "chain" else n + 1
             assert len(found.diagnoses) == expected, (shape, n, len(found.diagnoses))
             assert all(len(d) == 1 for d in found.diagnoses)
-            # CPU time: on a shared machine the wait for a core is not the code's
-            for card in (None, 2):
-                name = f"{shape}, all diagnoses" + (" <= 2" if card else "")
-                run = lambda t=theory, o=observed, c=card: diagnose(t, o, c)  # noqa: E731
-                best, _ = timed(run, repeat, time.process_time)
+        for card in (None, 2):
+            name = f"{shape}, all diagnoses" + (" <= 2" if card else "")
+            runs = [functools.partial(diagnose, t, o, card) for t, o in cases]
+            for n, (best, count) in zip(sizes, best_times(runs, repeat, seconds), strict=True):
                 rows.setdefault(name, []).append(best)
-                print(f"  {name:<28} n={n:>6,}: {best / 1000:8.3f} s", flush=True)
-    print(f"\nCPU time, best of {repeat} runs, in s; load average {os.getloadavg()[0]:.1f}")
+                print(f"  {name:<28} n={n:>6,}: {best:8.2f} ms (best of {count})", flush=True)
+    print(
+        f"\nCPU time in ms, best of at least {repeat} runs and {seconds:g} s per figure; "
+        f"load average {os.getloadavg()[0]:.1f}"
+    )
     head = "".join(f"{n:>10,}" for n in sizes)
     print(f"{'shape':<28}{head} {f'{sizes[-1] // 1000}k/{sizes[0] // 1000}k':>9}")
     for name, times in rows.items():
-        cells = "".join(f"{t / 1000:>10.3f}" for t in times)
+        cells = "".join(f"{t:>10.2f}" for t in times)
         print(f"{name:<28}{cells} {times[-1] / times[0]:>9.1f}")
 
 
@@ -224,11 +255,17 @@ def main() -> None:
     parser.add_argument(
         "--scaling-only", action="store_true", help="only the chain and fan-in scaling"
     )
+    parser.add_argument(
+        "--seconds",
+        type=float,
+        default=2.0,
+        help="least CPU time of runs per chain and fan-in figure (default 2.0)",
+    )
     args = parser.parse_args()
     if not args.scaling_only:
         _synthetic_figures(args.repeat)
     print("\nchain and fan-in scaling:")
-    measure_scaling(args.scaling, args.repeat)
+    measure_scaling(args.scaling, args.repeat, args.seconds)
 
 
 def _synthetic_figures(repeat: int) -> None:

@@ -68,6 +68,11 @@ class Index:
         """COMPS sorted by name: the order of a diagnosis's members."""
         return tuple(sorted(self.theory.components))
 
+    @functools.cached_property
+    def singleton_tuples(self) -> tuple[tuple[str], ...]:
+        """``(c,)`` for each component, sorted: the one-member diagnoses a result shares."""
+        return tuple((c,) for c in self.sorted_components)
+
     # numbering
 
     @property
@@ -105,7 +110,7 @@ class Index:
     # propagation
 
     @property
-    def by_head(self) -> list[list[int]]:
+    def by_head(self) -> list[tuple[int, ...]]:
         return self.propagation.by_head
 
     def base(self, observations: Sequence[Literal]) -> tuple[Base, tuple[int, ...]]:

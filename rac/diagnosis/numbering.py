@@ -9,9 +9,10 @@ in the same pass (heads, then bodies, then the props), so that propagation
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
-from itertools import compress, count
-from operator import itemgetter
+from itertools import compress, count, repeat
+from operator import attrgetter, is_, itemgetter, not_
 from typing import cast
 
 from rac.diagnosis.theory import Key, Literal, Theory
@@ -19,6 +20,8 @@ from rac.errors import Diagnostic, RacError, did_you_mean
 from rac.logic import FALSE, Atom
 
 _first = itemgetter(0)
+_key_of = attrgetter("atom.predicate", "atom.args")  # an observation's atom as a key
+_positive_of = attrgetter("positive")
 
 
 def _intern(ids: dict[Key, int], key: Key) -> int:
@@ -243,21 +246,34 @@ class AtomNumbering:
 
     def observed(self, observations: Sequence[Literal]) -> list[int]:
         """Θ as atom numbers (RacError RAC040 for an unknown atom)."""
-        # literal_id's common case inlined: tens of thousands of observations per call
-        ids, complement, prefix = self.ids, self.complement, self.theory.neg_prefix
-        excluded = {self.theory.ab, self.theory.nab, FALSE}
-        found = []
-        for lit in observations:
-            pred = lit.atom.predicate
-            i = None
-            if pred not in excluded and not pred.startswith(prefix):
-                i = ids.get((pred, lit.atom.args))
-                if i is not None and not lit.positive:
-                    i = complement[i]
-            if i is None:
-                i = self.literal_atom(lit)  # the other cases, or RAC040
-            found.append(i)
-        return found
+        # C loops over the whole Θ, on a table of the observable atoms alone: tens of
+        # thousands of observations per diagnosis, where a Python loop per literal on the
+        # table of every atom was a fifth of a fan-in's diagnosis at 20,000 components.
+        found: list[int | None] = list(map(self._observable.get, map(_key_of, observations)))
+        complement = self.complement
+        for k in compress(count(), map(not_, map(_positive_of, observations))):
+            i = found[k]
+            if i is not None:
+                found[k] = complement[i]
+        for k in compress(count(), map(is_, found, repeat(None))):
+            found[k] = self.literal_atom(observations[k])  # another atom, or RAC040
+        return cast(list[int], found)
+
+    @functools.cached_property
+    def _observable(self) -> dict[Key, int]:
+        """The theory's props whose predicate an observation names as it is (not AB, NAB,
+        false or one with the negation prefix, which :meth:`literal_id` looks at more
+        closely) -> their numbers: a table a third the size of ``ids``."""
+        theory, ids = self.theory, self.ids
+        excluded = {theory.ab, theory.nab, FALSE}
+        found = {}
+        for atom in theory.props:
+            key = (atom.predicate, atom.args)
+            i = ids.get(key)
+            if i is not None and key[0] not in excluded:
+                found[key] = i
+        prefix = theory.neg_prefix
+        return {k: i for k, i in found.items() if not k[0].startswith(prefix)}
 
     def plain_ids(self, lines: Sequence[tuple[str, str, str]]) -> list[int] | None:
         """Plain literal lines (:func:`rac.diagnosis.theory.plain_lines`) as atom numbers,

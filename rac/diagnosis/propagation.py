@@ -63,33 +63,36 @@ class Propagation:
         self.occurs = self._occurrences(self.body)
         self.size = list(map(len, self.body))
         self.facts = list(compress(count(), map(not_, self.size)))
-        self._by_head: list[list[int]] | None = None
+        self._by_head: list[tuple[int, ...]] | None = None
         self.monotone = self._is_monotone(numbering.ab_ids)
         self._normal: Full | None = None
 
-    def _occurrences(self, bodies: Sequence[Sequence[int]]) -> list[Sequence[int]]:
-        """The clauses each atom occurs in the body of.  Most atoms (heads, complements)
-        occur in none and share one empty tuple: a list per atom is a hundred thousand
-        allocations on a large model, and allocation is what scales worst there."""
-        none: Sequence[int] = ()
-        occurs: list[Sequence[int]] = [none] * self.count
+    def _occurrences(self, bodies: Sequence[Sequence[int]]) -> list[tuple[int, ...]]:
+        """The clauses each atom occurs in the body of, as tuples: a tuple holds its items
+        in its own block, where a list points to a second one, and on a large model the
+        memory reads are most of a propagation step's cost.  Most atoms (heads,
+        complements) occur in none and share one empty tuple: a list per atom is a hundred
+        thousand allocations on a large model, and allocation is what scales worst there."""
+        none: list[int] = []
+        occurs: list[list[int]] = [none] * self.count
         for k, body in enumerate(bodies):
             for a in body:
                 found = occurs[a]
                 if found is none:
                     occurs[a] = [k]
                 else:
-                    found.append(k)  # type: ignore[attr-defined]  # a list once non-empty
-        return occurs
+                    found.append(k)
+        return list(map(tuple, occurs))  # () is one object: the shared empty list stays one
 
     @property
-    def by_head(self) -> list[list[int]]:
-        """The clauses deriving each atom (built on first use: only DRed needs it)."""
+    def by_head(self) -> list[tuple[int, ...]]:
+        """The clauses deriving each atom (built on first use: only DRed and the traces need
+        it), as tuples for the reason :meth:`_occurrences` gives."""
         if self._by_head is None:
             by_head: list[list[int]] = [[] for _ in range(self.count)]
             for k, h in enumerate(self.head):
                 by_head[h].append(k)
-            self._by_head = by_head
+            self._by_head = list(map(tuple, by_head))
         return self._by_head
 
     def _is_monotone(self, ab_ids: list[int]) -> bool:

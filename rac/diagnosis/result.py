@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from itertools import compress
 
 from rac.diagnosis.engine import Index
 from rac.diagnosis.search import HittingSetDag, minimal_sets, transversals
@@ -30,29 +31,46 @@ compile_theory: ByIdentity[Theory, Index] = ByIdentity(Index)
 
 
 def _ordered(
-    sets: Sequence[frozenset[str]], order: Sequence[str], singles: frozenset[str] = frozenset()
+    sets: Sequence[frozenset[str]], index: Index, singles: frozenset[str] = frozenset()
 ) -> tuple[tuple[str, ...], ...]:
     """Each set sorted, fewest members first, then by name, with a one-member set for each
     of ``singles``: tuples of one size are compared as they are, without a (size, tuple)
-    key per set.  ``order`` is every component, sorted."""
-    singles = singles.union(name for s in sets if len(s) == 1 for name in s)
+    key per set."""
+    order = index.sorted_components
+    singles = _with_members(singles, (s for s in sets if len(s) == 1))
     by_size: dict[int, list[tuple[str, ...]]] = {}
     for s in sets:
         if len(s) != 1:
             by_size.setdefault(len(s), []).append(_in_order(s, order))
-    by_size[1] = [(name,) for name in _in_order(singles, order)]
-    return tuple(
-        t for size in sorted(by_size) for t in (by_size[1] if size == 1 else sorted(by_size[size]))
-    )
+    # the one-member sets are the index's own tuples: a chain's or a fan-in's n of them were
+    # n new tuples per diagnosis, which the garbage collector then walked
+    one = index.singleton_tuples
+    if 4 * len(singles) < len(order):
+        one = tuple((c,) for c in sorted(singles))
+    elif len(singles) != len(order):
+        one = tuple(compress(one, map(singles.__contains__, order)))
+    ordered = [t for size in sorted(by_size) if size < 1 for t in by_size[size]]  # the empty set
+    ordered.extend(one)
+    ordered.extend(t for size in sorted(by_size) if size > 1 for t in sorted(by_size[size]))
+    return tuple(ordered)
 
 
-def _in_order(names: frozenset[str], order: Sequence[str]) -> tuple[str, ...]:
-    """``tuple(sorted(names))``; for a large share of all components by one pass over them
-    in order (a chain's n single-fault diagnoses, a fan-in's conflict of every component):
-    n look-ups, where the sort compared strings scattered over memory n log n times."""
+def _with_members(names: frozenset[str], sets: Iterable[frozenset[str]]) -> frozenset[str]:
+    """``names`` and the members of ``sets``; ``names`` itself when they add none (no copy
+    of a set of every component)."""
+    more = set().union(*sets)
+    return names if more <= names else names | more
+
+
+def _in_order(names: frozenset[str], order: tuple[str, ...]) -> tuple[str, ...]:
+    """``tuple(sorted(names))`` for a subset of ``order`` (every component, sorted): ``order``
+    itself when it is all of them (a fan-in's conflict), by one pass over them for a large
+    share (n look-ups, where the sort compared strings scattered over memory n log n times)."""
+    if len(names) == len(order):
+        return order
     if 4 * len(names) < len(order):
         return tuple(sorted(names))
-    return tuple(name for name in order if name in names)
+    return tuple(compress(order, map(names.__contains__, order)))
 
 
 def is_consistent(theory: Theory, observations: Sequence[Literal], bad: Sequence[str] = ()) -> bool:
@@ -103,11 +121,10 @@ def _diagnose(theory: Theory, observed: Sequence[int], max_card: int | None) -> 
         conflicts = minimal_sets([nab for nab, ab in weak.conflicts if not ab])
     else:
         conflicts = transversals(weak.larger, weak.singles)
-    order = index.sorted_components
     return DiagnosisResult(
         consistent=consistent,
-        conflicts=_ordered(conflicts, order),
-        diagnoses=_ordered(strong.larger, order, strong.singles),
+        conflicts=_ordered(conflicts, index),
+        diagnoses=_ordered(strong.larger, index, strong.singles),
         components=comps,
         bounded=strong.bounded,
     )

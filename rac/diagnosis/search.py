@@ -66,9 +66,11 @@ class HittingSetDag:
             closure = self.full if support == index.nab_atoms else None
             atoms = index.minimal_conflict(self.base, support, self.needed_under, closure)
         component = index.component
-        ab_atoms = atoms.intersection(index.ab_atoms)
-        nab = frozenset(component[a] for a in atoms.difference(ab_atoms))
-        ab = frozenset(component[a] for a in ab_atoms)
+        # Δ = ∅ assumes no AB: nothing to take out of a conflict of every component
+        ab_atoms = atoms.intersection(index.ab_atoms) if delta else frozenset[int]()
+        nab_atoms = atoms.difference(ab_atoms) if ab_atoms else atoms
+        nab = frozenset(map(component.__getitem__, nab_atoms))
+        ab = frozenset(map(component.__getitem__, ab_atoms))
         self.conflicts.append((nab, ab))
         return nab, ab
 
@@ -83,7 +85,7 @@ class HittingSetDag:
         traced = assumptions_of_one_derivation(full.clashes[0], full, index.body, index.by_head)
         if traced is None:
             return None
-        atoms = frozenset(traced)
+        atoms = traced
         self.needed_under[index.nab_atoms] = self.root_atoms = atoms
         return atoms
 
@@ -158,7 +160,7 @@ class HittingSetDag:
                 if not delta and (max_card is None or max_card >= 1):
                     # the root's children are the label's components alone, and no smaller
                     # diagnosis can hold one: those known consistent are diagnoses already
-                    found.singles.update(known)
+                    found.add_singles(known)
                     children.update(frozenset((c,)) for c in label[0] if c not in known)
                     continue
                 for comp in label[0]:
@@ -169,9 +171,7 @@ class HittingSetDag:
             card += 1
             level = children
         bounded = any(not found.covers(child) for child in cut)
-        return Search(
-            frozenset(found.singles), tuple(found.larger), (*singletons, *self.conflicts), bounded
-        )
+        return Search(found.singles, tuple(found.larger), (*singletons, *self.conflicts), bounded)
 
 
 # A node labelled with fewer components has its children checked one by one (each check costs
@@ -184,17 +184,32 @@ class _Diagnoses:
     ones by a set look-up, not a scan (a chain of n components has n)."""
 
     def __init__(self) -> None:
-        self.singles: set[str] = set()
+        self._single_groups: list[frozenset[str]] = []  # each a set of single-fault ones
+        self._singles: set[str] = set()  # the others, found one at a time
         self.larger: list[frozenset[str]] = []
 
     def add(self, delta: frozenset[str]) -> None:
         if len(delta) == 1:
-            self.singles |= delta
+            self._singles |= delta
         else:
             self.larger.append(delta)
 
+    def add_singles(self, names: frozenset[str]) -> None:
+        """Each of ``names`` is a diagnosis alone: kept as the set it is (a chain's or a
+        fan-in's n components, not copied member by member)."""
+        self._single_groups.append(names)
+
+    @property
+    def singles(self) -> frozenset[str]:
+        groups = [*self._single_groups, self._singles] if self._singles else self._single_groups
+        if len(groups) == 1 and isinstance(groups[0], frozenset):
+            return groups[0]
+        return frozenset().union(*groups)
+
     def covers(self, delta: frozenset[str]) -> bool:
-        if not self.singles.isdisjoint(delta):
+        if not self._singles.isdisjoint(delta):
+            return True
+        if any(not group.isdisjoint(delta) for group in self._single_groups):
             return True
         return bool(self.larger) and any(d <= delta for d in self.larger)
 
@@ -241,7 +256,9 @@ def transversals(
     # A one-element edge is in every hitting set: taken out first, the rest is what Berge's
     # rounds grow (n single-fault diagnoses were n rounds over one growing set: quadratic).
     # An edge holding one of them is hit already; the others join each set at the end.
-    forced = singles.union(e for edge in edges if len(edge) == 1 for e in edge)
+    more = frozenset[str]().union(*(edge for edge in edges if len(edge) == 1))
+    # singles itself when the edges add none: a fan-in's conflict of every component
+    forced = singles if more <= singles else singles | more
     current: list[frozenset[str]] = [frozenset()]
     for edge in minimal_sets([e for e in edges if len(e) != 1 and e.isdisjoint(forced)]):
         grown: list[frozenset[str]] = []
@@ -251,4 +268,4 @@ def transversals(
             else:
                 grown.extend(t | {e} for e in edge)
         current = minimal_sets(grown)
-    return [t | forced for t in current] if forced else current
+    return [t | forced if t else forced for t in current] if forced else current

@@ -1,16 +1,16 @@
 """Which assumptions a contradiction rests on: the support trace, the assumptions every
 derivation needs, and minimal conflicts.
 
-One trace serves every caller (the support of a check, the search's singleton test, the
-one-derivation label); :func:`necessary` finds the assumptions in every derivation of every
-contradiction in one pass, and :func:`minimal_conflict` shrinks a conflict with it.
+One trace serves the support of a check and the search's singleton test, another the
+one-derivation label of a whole closure; :func:`necessary` finds the assumptions in every
+derivation of every contradiction in one pass, and :func:`minimal_conflict` shrinks a
+conflict with it.
 """
 
 from __future__ import annotations
 
 from collections import ChainMap
 from collections.abc import Iterable, Mapping, Sequence
-from typing import cast
 
 from rac.diagnosis.propagation import ASSUMED, Base, Full, Propagation
 
@@ -33,8 +33,7 @@ def assumptions_behind(
     is read map by map: its own ``get`` runs in Python, once per atom of a trace as long as
     the model.
     """
-    # only a check of derivations (by_head) makes a trace give None
-    return cast(set[int], _trace(atoms, why, body, limit, None, None))
+    return _trace(atoms, why, body, limit)
 
 
 def assumptions_of_one_derivation(
@@ -42,11 +41,37 @@ def assumptions_of_one_derivation(
     closure: Full,
     body: Sequence[Sequence[int]],
     by_head: Sequence[Sequence[int]],
-) -> set[int] | None:
+) -> frozenset[int] | None:
     """:func:`assumptions_behind` of ``atoms`` in ``closure`` when every atom they were derived
     from has one derivation (no other clause of it fired; no clause at all when it was
-    assumed), which makes those assumptions needed by every derivation; None otherwise."""
-    return _trace(atoms, closure.why, body, None, by_head, closure.missing)
+    assumed), which makes those assumptions needed by every derivation; None otherwise.
+
+    The trace of a contradiction in a whole closure: as long as the model (a chain, a
+    fan-in), so the atoms met are marked in a byte per atom, not kept in a set, whose
+    table at 60,000 atoms no longer fits a core's cache.
+    """
+    why, missing = closure.why, closure.missing
+    find = why.get
+    found: list[int] = []
+    seen = bytearray(len(by_head))
+    stack = list(atoms)
+    while stack:
+        a = stack.pop()
+        if seen[a]:
+            continue
+        seen[a] = 1
+        k = find(a)
+        if k is None:  # true in the base: follows from Θ alone
+            continue
+        deriving = by_head[a]  # no clause for an assumption, one for a chain's link
+        several = deriving and (k == ASSUMED or len(deriving) > 1)
+        if several and any(missing[j] == 0 for j in deriving if j != k):
+            return None  # a second derivation
+        if k == ASSUMED:
+            found.append(a)
+        else:
+            stack.extend(reversed(body[k]))
+    return frozenset(found)
 
 
 def _trace(
@@ -54,13 +79,10 @@ def _trace(
     why: Mapping[int, int],
     body: Sequence[Sequence[int]],
     limit: int | None,
-    by_head: Sequence[Sequence[int]] | None,
-    missing: Sequence[int] | None,
-) -> set[int] | None:
-    """The one trace behind :func:`assumptions_behind` and
-    :func:`assumptions_of_one_derivation`: depth first, a clause's body pushed last atom
-    first, so that a clause's own assumptions are met before the atoms it was derived
-    from (a limit is reached without walking a chain to its start)."""
+) -> set[int]:
+    """:func:`assumptions_behind`: depth first, a clause's body pushed last atom first, so
+    that a clause's own assumptions are met before the atoms it was derived from (a limit
+    is reached without walking a chain to its start)."""
     nothing: dict[int, int] = {}
     maps = why.maps if isinstance(why, ChainMap) and len(why.maps) == 2 else [why, nothing]
     find_changed, find_rest = maps[0].get, maps[1].get
@@ -78,11 +100,6 @@ def _trace(
             k = find_rest(a)
             if k is None:  # true in the base: follows from Θ alone
                 continue
-        if by_head is not None and missing is not None:
-            deriving = by_head[a]  # no clause for an assumption, one for a chain's link
-            several = deriving and (k == ASSUMED or len(deriving) > 1)
-            if several and any(missing[j] == 0 for j in deriving if j != k):
-                return None  # a second derivation
         if k == ASSUMED:
             found.add(a)
         else:

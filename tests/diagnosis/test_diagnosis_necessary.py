@@ -164,7 +164,7 @@ def test_one_derivation_traced_or_refused() -> None:
     full = index.full(base)
     (clash,) = full.clashes
     traced = support.assumptions_of_one_derivation(clash, full, index.body, index.by_head)
-    assert traced == set(index.all_nab)
+    assert traced == frozenset(index.all_nab)
     spare = Clause((Atom("NAB", ("p0",)), Atom("ok", ("in0",))), Atom("ok", ("t0",)))
     clauses = (*theory.clauses, spare)
     spared = Theory(clauses, theory.props, components_of(clauses))

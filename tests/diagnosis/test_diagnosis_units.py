@@ -77,6 +77,35 @@ def test_numbering_converts_observations(numbering: AtomNumbering) -> None:
     assert seeds == [numbering.nab_id["a"], numbering.nab_id["c"], numbering.ab_id["b"]]
 
 
+def test_observations_beyond_the_props_are_converted_one_by_one() -> None:
+    """Θ is looked up in a table of the props alone; an observation of an atom the rules
+    mention but the props do not, of one named only by its negation, or of an assumption,
+    takes the literal-by-literal path, with the same answer or error."""
+    mentioned_negation = Clause((_nab("a"),), Atom("not_seen", ("x",)))
+    clauses = (*CLAUSES, mentioned_negation)
+    numbering = AtomNumbering(Theory(clauses, (_ok("in"),), components_of(clauses)))
+    mixed = (
+        Literal(_ok("in"), False),  # a prop
+        Literal(_ok("m"), True),  # mentioned by the rules only
+        Literal(_ok("out"), False),
+        Literal(Atom("seen", ("x",)), False),  # only its negation is mentioned
+        Literal(_ok("in"), True),
+    )
+    found = numbering.observed(mixed)
+    assert found == [numbering.literal_atom(lit) for lit in mixed]
+    assert [numbering.keys[a] for a in found] == [
+        ("not_ok", ("in",)),
+        ("ok", ("m",)),
+        ("not_ok", ("out",)),
+        ("not_seen", ("x",)),
+        ("ok", ("in",)),
+    ]
+    for wrong in (Literal(_nab("a"), True), Literal(Atom("seen", ("y",)), False)):
+        with pytest.raises(RacError) as err:
+            numbering.observed((Literal(_ok("in"), True), wrong))
+        assert err.value.diagnostics[0].code == "RAC040"
+
+
 def test_propagation_closes_and_finds_the_contradiction(numbering: AtomNumbering) -> None:
     propagation = Propagation(numbering)
     assert not propagation.monotone  # AB(a) derives not_ok(m)
