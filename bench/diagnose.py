@@ -26,7 +26,9 @@ Then the scaling of two shapes whose answer grows with the model (issue 27), at 
 each diagnosed in full and up to cardinality 2, with the 20k/1k ratio of each time (linear
 is 20): the least CPU time of this process over at least ``--repeat`` runs and ``--seconds``
 of runs per figure, the sizes taking turns (see ``best_times``).  The chain took 296 s at
-20k (a consistency check per candidate, each as long as the chain).
+20k (a consistency check per candidate, each as long as the chain).  ``--phases`` also
+splits one diagnosis of each shape into its phases (observations to numbers, the closures,
+the search, the result) at the first and last size: where the time above linear is.
 """
 
 from __future__ import annotations
@@ -242,6 +244,56 @@ def measure_scaling(sizes: list[int], repeat: int, seconds: float) -> None:
         print(f"{name:<28}{cells} {times[-1] / times[0]:>9.1f}")
 
 
+def diagnosis_phases(theory: Theory, observed: list[Any]) -> dict[str, float]:
+    """One diagnosis of Θ, as ``diagnose`` runs it, split into its phases: CPU time of each."""
+    from rac.diagnosis.result import _ordered
+    from rac.diagnosis.search import HittingSetDag, transversals
+    from rac.perf import paused_gc
+
+    clock = time.process_time
+    marks = [("", clock())]
+    with paused_gc():
+        index = compile_theory(theory)
+        ids = index.observed_ids(observed)
+        marks.append(("observations to numbers", clock()))
+        base, _ = index.base_ids(ids)
+        marks.append(("closure of Θ (base)", clock()))
+        full = index.full(base)
+        marks.append(("all-normal closure", clock()))
+        search = HittingSetDag(index, base, full, strong=True).run(None)
+        marks.append(("hitting-set search", clock()))
+        conflicts = transversals(search.larger, search.singles)
+        ordered = (_ordered(conflicts, index), _ordered(search.larger, index, search.singles))
+        marks.append(("conflicts and result", clock()))
+    marks.append(("collector resumed", clock()))
+    del ordered
+    return {name: (t - marks[k][1]) * 1000 for k, (name, t) in enumerate(marks[1:])}
+
+
+def measure_phases(sizes: list[int], repeat: int) -> None:
+    """The phases of the chain's and the fan-in's diagnosis at the first and last size, each
+    the least over ``repeat`` turns of 0.1 s, and their ratio."""
+    small, large = sizes[0], sizes[-1]
+    for shape in ("chain", "fan-in"):
+        cases = {n: scaling_case(shape, n) for n in (small, large)}
+        runs: dict[int, list[dict[str, float]]] = {small: [], large: []}
+        for turn in range(repeat + 1):  # in turns of 0.1 s, as the totals; the first warms up
+            for n, (theory, observed) in cases.items():
+                spent = 0.0
+                while spent < 0.1:
+                    phases = diagnosis_phases(theory, observed)
+                    spent += sum(phases.values()) / 1000
+                    if turn:
+                        runs[n].append(phases)
+        best = {n: {name: min(run[name] for run in runs[n]) for name in runs[n][0]} for n in runs}
+        print(f"\n{shape}: phases of one diagnosis, CPU ms, least over {repeat} turns of 0.1 s")
+        print(f"{'phase':<26}{small:>10,}{large:>10,}{'ratio':>8}")
+        for name, t_small in best[small].items():
+            t_large = best[large][name]
+            ratio = f"{t_large / t_small:8.1f}" if t_small > 0.005 else f"{'-':>8}"
+            print(f"{name:<26}{t_small:10.3f}{t_large:10.3f}{ratio}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5, help="runs per figure (median)")
@@ -256,6 +308,11 @@ def main() -> None:
         "--scaling-only", action="store_true", help="only the chain and fan-in scaling"
     )
     parser.add_argument(
+        "--phases",
+        action="store_true",
+        help="also the phases of one chain and fan-in diagnosis at the first and last size",
+    )
+    parser.add_argument(
         "--seconds",
         type=float,
         default=2.0,
@@ -266,6 +323,8 @@ def main() -> None:
         _synthetic_figures(args.repeat)
     print("\nchain and fan-in scaling:")
     measure_scaling(args.scaling, args.repeat, args.seconds)
+    if args.phases:
+        measure_phases(args.scaling, max(args.repeat, 20))
 
 
 def _synthetic_figures(repeat: int) -> None:
