@@ -249,6 +249,8 @@ class AtomNumbering:
         # C loops over the whole Θ, on a table of the observable atoms alone: tens of
         # thousands of observations per diagnosis, where a Python loop per literal on the
         # table of every atom was a fifth of a fan-in's diagnosis at 20,000 components.
+        if not isinstance(observations, Sequence):  # read three times below
+            observations = list(observations)
         found: list[int | None] = list(map(self._observable.get, map(_key_of, observations)))
         complement = self.complement
         for k in compress(count(), map(not_, map(_positive_of, observations))):

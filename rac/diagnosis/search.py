@@ -256,6 +256,7 @@ def transversals(
     # A one-element edge is in every hitting set: taken out first, the rest is what Berge's
     # rounds grow (n single-fault diagnoses were n rounds over one growing set: quadratic).
     # An edge holding one of them is hit already; the others join each set at the end.
+    singles = frozenset(singles)  # no copy of a frozenset: returned as it is, never mutable
     more = frozenset[str]().union(*(edge for edge in edges if len(edge) == 1))
     # singles itself when the edges add none: a fan-in's conflict of every component
     forced = singles if more <= singles else singles | more

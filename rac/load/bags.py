@@ -4,6 +4,7 @@ rosbags into the arrays of :mod:`rac.learn.recording` (what learning and replay 
 from __future__ import annotations
 
 import struct
+import sys
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
@@ -102,6 +103,28 @@ def read_run(
         # A damaged length field (an MCAP record's, say) asks the reader for terabytes.
         why = "reading it ran out of memory: a length in it is damaged, or the run is too large"
         raise _fail(str(path), why) from None
+    except Exception as err:
+        # Any other error the reader library's own code raised on the file's bytes (a
+        # TypeError from ord() of an MCAP read cut short): the file, not racc, is at fault.
+        # One raised in racc's code is a bug and stays an internal error.
+        if not _raised_by_reader(err):
+            raise
+        why = f"damaged ({type(err).__name__}: {err})"
+        raise _fail(str(path), f"{_storage_files(p)}: {why}" if p.is_dir() else why) from None
+
+
+# rosbags is a namespace package (no __file__): its folder is that of one of its modules
+_READER_PACKAGE = Path(sys.modules[AnyReader.__module__].__file__ or "").parent.parent
+
+
+def _raised_by_reader(err: BaseException) -> bool:
+    """Was ``err`` raised in the reader library (rosbags), its innermost Python frame there?"""
+    tb = err.__traceback__
+    if tb is None:
+        return False
+    while tb.tb_next is not None:
+        tb = tb.tb_next
+    return Path(tb.tb_frame.f_code.co_filename).is_relative_to(_READER_PACKAGE)
 
 
 def _damage(err: Exception, path: Path) -> str:

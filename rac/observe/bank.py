@@ -58,6 +58,7 @@ class ObserverBank:
         self.devices = frozenset(d for o in self.observers for d in o.needs.devices)
         self.needs_board = bool(self._channels)
         self._timing = tuple(o for o in self.observers if isinstance(o, TimingObserver))
+        self._timed = tuple(o for o in self.observers if o.timed)  # the others never change
 
     def topic_fields(self) -> dict[str, frozenset[str]]:
         """Topic -> the fields some observer reads (empty: only the occurrence counts)."""
@@ -87,8 +88,10 @@ class ObserverBank:
         out: list[Verdict] = []
         if not math.isfinite(t):
             return out
-        for obs in self.observers:
-            out.extend(_ordered(obs.advance(t)))
+        for obs in self._timed:
+            changed = obs.advance(t)
+            if changed:
+                out.extend(_ordered(changed))
         return out
 
     def starved(self, t: float, starved: bool) -> list[Verdict]:

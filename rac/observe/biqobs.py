@@ -32,6 +32,7 @@ needs samples up to 3ω/2 on either side of its own), a mismatch is not counted;
 from __future__ import annotations
 
 import math
+from typing import ClassVar
 
 from rac.observe.base import Latch, Mismatch
 from rac.observe.events import Event, Message, Verdict
@@ -44,6 +45,8 @@ DEFAULT_WS = 1.0
 
 
 class BiQObs:
+    timed: ClassVar[bool] = True  # silence, windows and hysteresis run on time alone
+
     def __init__(self, spec: ObserverSpec) -> None:
         p = Params(spec)
         self.spec = spec

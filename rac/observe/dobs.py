@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
+from typing import ClassVar
 
 from rac.observe.base import Latch, Mismatch, Needs
 from rac.observe.events import DeviceStatus, Event, Verdict
@@ -61,6 +62,8 @@ def names_device(status: DeviceStatus, device: str) -> bool:
 
 
 class DObs:
+    timed: ClassVar[bool] = False  # a verdict changes only with an input
+
     def __init__(self, spec: ObserverSpec) -> None:
         p = Params(spec)
         self.spec = spec

@@ -9,6 +9,8 @@ The atoms are the spec's, in the order of ``channels``.
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 from rac.logic import Atom, mangle
 from rac.observe.base import Latch, Needs
 from rac.observe.events import ChannelState, Event, Verdict
@@ -29,6 +31,8 @@ def parse_channels(spec: ObserverSpec, text: str) -> tuple[tuple[str, int], ...]
 
 
 class HObs:
+    timed: ClassVar[bool] = False  # a verdict changes only with an input
+
     def __init__(self, spec: ObserverSpec) -> None:
         p = Params(spec)
         self.spec = spec

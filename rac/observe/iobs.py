@@ -16,6 +16,7 @@ to two units in the last place of the largest of the three (1.1 − 1.0 is
 from __future__ import annotations
 
 import math
+from typing import ClassVar
 
 from rac.observe.base import Latch, Mismatch, Needs
 from rac.observe.events import Event, Message, Verdict
@@ -45,6 +46,8 @@ def pair_needs(t1: str, f1: str, t2: str, f2: str) -> Needs:
 
 
 class IObs:
+    timed: ClassVar[bool] = False  # a verdict changes only with an input
+
     def __init__(self, spec: ObserverSpec) -> None:
         p = Params(spec)
         self.spec = spec

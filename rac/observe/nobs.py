@@ -7,6 +7,8 @@ computation graph (lines 3-4); the θ rule of :mod:`rac.observe.base` gives the 
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 from rac.observe.base import Latch, Mismatch, Needs, plain_node
 from rac.observe.events import Event, NodeSample, Verdict
 from rac.observe.params import Params
@@ -14,6 +16,8 @@ from rac.passes.observers import DEFAULT_MISMATCH_THRESHOLD, ObserverSpec
 
 
 class NObs:
+    timed: ClassVar[bool] = False  # a verdict changes only with an input
+
     def __init__(self, spec: ObserverSpec) -> None:
         p = Params(spec)
         self.spec = spec

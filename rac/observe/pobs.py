@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from typing import ClassVar
 
 from rac.observe.base import Latch, Mismatch, Needs, plain_node
 from rac.observe.events import Event, PropertySample, Verdict
@@ -26,6 +27,8 @@ PROPERTIES = ("cpu", "mem")
 
 
 class PObs:
+    timed: ClassVar[bool] = False  # a verdict changes only with an input
+
     def __init__(self, spec: ObserverSpec) -> None:
         p = Params(spec)
         self.spec = spec

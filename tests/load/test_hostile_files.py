@@ -427,6 +427,40 @@ def test_an_mcap_length_beyond_any_read_is_an_input_error(
     _damaged_run_fails_cleanly(run, tmp_path, capsys, "run.mcap: a length in it is damaged")
 
 
+def test_an_mcap_file_cut_after_its_magic_is_an_input_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """An MCAP file of its 8 magic bytes alone (a copy cut short): rosbags read the next
+    record's opcode from nothing, and the TypeError of ord('') was a bug report (exit 70;
+    bench/fuzz.py, make_case('mcap', 1002651))."""
+    run = tmp_path / "run"
+    args = ["synth", str(TEDUSAR), "-o", str(run), "--duration", "2", "--storage", "mcap", "-q"]
+    assert main(args) == 0
+    mcap = run / "run.mcap"
+    mcap.write_bytes(mcap.read_bytes()[:8])
+    _damaged_run_fails_cleanly(run, tmp_path, capsys, "run.mcap: damaged (TypeError: ord()")
+
+
+def test_an_error_in_racc_reading_a_bag_stays_an_internal_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Only what the reader library raises on a file's bytes is the file's fault: the same
+    TypeError raised in racc's own code is a bug, and is not called a damaged recording."""
+    from rac.learn.fields import FieldSelector
+    from rac.load import bags
+
+    run = tmp_path / "run"
+    args = ["synth", str(TEDUSAR), "-o", str(run), "--duration", "2", "--storage", "mcap", "-q"]
+    assert main(args) == 0
+
+    def broken(*_: object) -> object:
+        raise TypeError("a bug of racc's")
+
+    monkeypatch.setattr(bags, "_read", broken)
+    with pytest.raises(TypeError, match="a bug of racc's"):
+        bags.read_run(run, FieldSelector())
+
+
 @pytest.mark.parametrize("depth", [100, 600, 1200])
 def test_a_rosbag2_metadata_yaml_nested_deep_is_an_input_error(
     depth: int, tmp_path: Path, capsys: pytest.CaptureFixture[str]

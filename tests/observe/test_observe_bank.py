@@ -204,3 +204,22 @@ def test_models_observers_read_a_healthy_stream_as_healthy(model: str) -> None:
     for spec in observers:
         if spec.kind in ("DObs", "HObs"):
             assert all(latest.get(a) == [True] for a in spec.atoms), spec.name
+
+
+@pytest.mark.parametrize("model", ["tedusar.ram", "pioneer.ram"])
+def test_bank_advances_only_the_observers_time_can_change(model: str) -> None:
+    """A bank calls advance() only on the observers marked ``timed`` (replay calls it every
+    0.1 s of a recording): on a stream that stops halfway, asking every observer as well
+    finds no verdict the bank did not give, so no untimed observer has work in advance()."""
+    observers = compile_model(load_model(str(MODELS / model))).observers
+    bank = ObserverBank(observers)
+    assert {type(o).__name__ for o in bank.observers if not o.timed} >= {"NObs", "PObs"}
+    assert any(o.timed for o in bank.observers)
+    events = [e for e in healthy_stream(bank, 20.0, seed=5) if e.t < 8.0 or e.t > 16.0]
+    timed_verdicts = 0
+    for event in events:
+        timed_verdicts += len(bank.advance(event.t))
+        untimed = [v for o in bank.observers if not o.timed for v in o.advance(event.t)]
+        assert not untimed, (event.t, untimed)
+        bank.feed(event)
+    assert timed_verdicts  # the silence from 8 s to 16 s was noticed by advancing alone
