@@ -311,3 +311,46 @@ def test_a_bag_that_loops_keeps_its_stamps_trusted() -> None:
     obs = gobs(100.0)
     assert texts(run(obs, trace)) == ["ok(x)"]
     assert obs.stamped
+
+
+class _NeverResting(GObs):
+    """GObs without its rest: every advance() does the whole count, as before it had one."""
+
+    def advance(self, t: float) -> list[Verdict]:
+        self._dormant = False
+        return super().advance(t)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_frequency_observer_at_rest_says_what_one_counting_every_step_says(seed: int) -> None:
+    """Counted to the end of a silence, the observer rests until its next message or a
+    change of starvation (replay of a recording stretched to days by a damaged stamp).
+    On bursts, stops of seconds to minutes, starvation and returns, every verdict and its
+    time is that of an observer that counts at every step."""
+    rng = random.Random(seed)
+    resting, counting = gobs(10.0), gobs(10.0)
+    counting.__class__ = _NeverResting
+    trace: Trace = []
+    t = 0.0
+    for _ in range(8):
+        burst = clumped(regular(10.0, t, t + rng.uniform(2.0, 15.0)), 0.2, rng.randrange(99), t)
+        trace += burst
+        t = burst[-1][0] + rng.choice([0.3, 1.0, 4.0, 30.0, 200.0])
+    starving = {round(rng.uniform(0, t), 1): rng.random() < 0.5 for _ in range(10)}
+    verdicts: dict[str, list[str]] = {}
+    for name, obs in (("resting", resting), ("counting", counting)):
+        out: list[Verdict] = []
+        tick, events = 0.1, iter(trace)
+        pending = next(events, None)
+        while tick <= t + 5.0:
+            if tick in starving:
+                out += obs.starved(tick, starving[tick])
+            while pending is not None and pending[0] <= tick:
+                out += obs.feed(Message(pending[0], "/x", {}, pending[1]))
+                pending = next(events, None)
+            out += obs.advance(tick)
+            tick = round(tick + 0.1, 9)
+        verdicts[name] = [f"{v.t:.3f} {v}" for v in out]
+    assert verdicts["resting"] == verdicts["counting"]
+    assert any("not_ok" in v for v in verdicts["resting"])  # the stops were noticed
+    assert any(" ok" in v for v in verdicts["resting"][1:])  # and the returns
