@@ -272,10 +272,13 @@ class AtomNumbering:
         for atom in theory.props:
             key = (atom.predicate, atom.args)
             i = ids.get(key)
-            if i is not None and key[0] not in excluded:
+            if (
+                i is not None
+                and key[0] not in excluded
+                and not key[0].startswith(theory.neg_prefix)
+            ):
                 found[key] = i
-        prefix = theory.neg_prefix
-        return {k: i for k, i in found.items() if not k[0].startswith(prefix)}
+        return found
 
     def plain_ids(self, lines: Sequence[tuple[str, str, str]]) -> list[int] | None:
         """Plain literal lines (:func:`rac.diagnosis.theory.plain_lines`) as atom numbers,

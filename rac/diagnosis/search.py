@@ -201,10 +201,9 @@ class _Diagnoses:
 
     @property
     def singles(self) -> frozenset[str]:
-        groups = [*self._single_groups, self._singles] if self._singles else self._single_groups
-        if len(groups) == 1 and isinstance(groups[0], frozenset):
-            return groups[0]
-        return frozenset().union(*groups)
+        if not self._singles and len(self._single_groups) == 1:
+            return self._single_groups[0]  # itself: the one set of them, not copied
+        return frozenset().union(*self._single_groups, self._singles)
 
     def covers(self, delta: frozenset[str]) -> bool:
         if not self._singles.isdisjoint(delta):

@@ -184,7 +184,6 @@ class GObs:
         self._k = 0  # occurrences so far
         self._starved = False
         self._settled = -math.inf  # timing is trusted again from here on
-        self._dormant = False  # advance() has nothing to do until the next input
 
     @property
     def stamped(self) -> bool:
@@ -194,7 +193,6 @@ class GObs:
     def feed(self, event: Event) -> list[Verdict]:
         if not isinstance(event, Message) or event.topic != self.topic:
             return []
-        self._dormant = False
         out = self._count_silence(event.t)
         now = Occurrence(event.t, event.stamp if self.stamps else None, self._k)
         self._k += 1
@@ -222,28 +220,29 @@ class GObs:
         return out
 
     def advance(self, t: float) -> list[Verdict]:
-        if self._dormant:
+        if self._at_rest():
             return []
         out = self._count_silence(t)
         self._settle(t, out)
-        # A silence counted to the cap with not_ok reported and nothing pending: until an
-        # input, time alone changes nothing (_count_silence would only move its count on,
-        # which the next one catches up on in one step).  A recording with a stamp days off
-        # is days of such steps.
+        return out
+
+    def _at_rest(self) -> bool:
+        """A silence counted to the cap, not_ok reported and nothing pending: until an input,
+        time alone changes nothing (_count_silence would only move its count on, which the
+        next one catches up on in one step).  A recording with a stamp days off is days of
+        such steps."""
         mismatch = self._mismatch
-        self._dormant = (
+        return (
             self._stale
             and not self._starved
             and mismatch.count >= mismatch.cap
             and self._hold.positive is False
             and self._hold.since is None
         )
-        return out
 
     def starved(self, t: float, starved: bool) -> list[Verdict]:
         if starved == self._starved:
             return []
-        self._dormant = False
         out: list[Verdict] = []
         if not starved:
             self._settled = t + self.window

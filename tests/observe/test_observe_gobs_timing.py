@@ -316,9 +316,8 @@ def test_a_bag_that_loops_keeps_its_stamps_trusted() -> None:
 class _NeverResting(GObs):
     """GObs without its rest: every advance() does the whole count, as before it had one."""
 
-    def advance(self, t: float) -> list[Verdict]:
-        self._dormant = False
-        return super().advance(t)
+    def _at_rest(self) -> bool:
+        return False
 
 
 @pytest.mark.parametrize("seed", range(6))
