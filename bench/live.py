@@ -88,7 +88,7 @@ def in_process(model_path: Path, seconds: float) -> tuple[float, float]:
     }
     # Messages are made ahead (the publisher's work is not the host's).
     made = {t.name: [d.message(t, epoch + k / t.rate_hz) for k in range(50)] for d, t in topics}
-    probe = ProcessProbe(host.bank.nodes, lambda _n: os.getpid(), host.bank.properties)
+    probe = ProcessProbe(host.bank.nodes, lambda _n: os.getpid(), host.bank.properties, settle_s=0)
     loop = HostLoop(host, probe)
     me = psutil.Process()
     queue = [(epoch, i) for i in range(len(topics))]

@@ -366,6 +366,33 @@ def flips(watch: Watch, start: float, end: float) -> dict[str, int]:
     return counts
 
 
+def timeline(watch: Watch, start: float, end: float) -> str:
+    """Every change of an observation's level (but a first ok) and of /diagnosis in
+    [start, end), one per line with its time from ``start``: what explains a plan."""
+    lines: list[str] = []
+    last: dict[str, int] = {}
+    with watch.lock:
+        events: list[tuple[float, int, list[Any]]] = [
+            (t, 0, rows) for t, rows in watch.observations
+        ]
+        events += [(t, 1, d) for t, d in watch.diagnosis]
+        previous: object = None
+        for t, kind, rows in sorted(events, key=lambda e: (e[0], e[1])):
+            if not start <= t < end:
+                continue
+            if kind == 1:
+                if rows != previous:
+                    lines.append(f"    {t - start:6.2f} s  diagnosis {rows or 'empty'}")
+                previous = rows
+                continue
+            for message, level in rows:
+                atom = message.removeprefix("not_")
+                if last.get(atom, 0) != level:  # a first ok is no news
+                    lines.append(f"    {t - start:6.2f} s  {message} level {level}")
+                last[atom] = level
+    return "\n".join(lines)
+
+
 def shown_plans(acted: list[LogRow], since: float) -> str:
     """The plans among ``acted``, one per line, with their time from ``since``."""
     lines = [f"    {t - since:6.1f} s  {msg}" for t, name, _, _, msg in acted if name == "plan"]

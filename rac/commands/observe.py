@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from typing import Any
 
 from rac.commands.common import add_command, add_ros_option, ros_version
@@ -10,6 +11,27 @@ from rac.errors import Diagnostic, RacError
 from rac.load.files import load_observers
 from rac.observe import ObserverBank
 from rac.passes.machines import machines_of, on_machine
+from rac.runtime.procs import DEFAULT_SETTLE_S
+
+
+def positive_number(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not 0 < value < math.inf:
+        raise argparse.ArgumentTypeError("must be a number more than 0")
+    return value
+
+
+def seconds_or_zero(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
+    if not 0 <= value < math.inf:
+        raise argparse.ArgumentTypeError("must be 0 or more seconds")
+    return value
 
 
 def register(sub: Any) -> None:
@@ -31,9 +53,18 @@ def register(sub: Any) -> None:
     parser.add_argument("observers", metavar="OBSERVERS", help="observers.yaml")
     parser.add_argument(
         "--rate",
-        type=float,
+        type=positive_number,
         default=10.0,
         help="node and property samples per second (default: 10)",
+    )
+    parser.add_argument(
+        "--settle",
+        type=seconds_or_zero,
+        default=DEFAULT_SETTLE_S,
+        metavar="S",
+        help="seconds a node's process runs before its cpu and memory are judged: a node's "
+        "start-up (imports, loading its configuration) is no overload "
+        f"(default: {DEFAULT_SETTLE_S:g}; 0 judges from the first sample)",
     )
     parser.add_argument(
         "--machine",
@@ -75,5 +106,12 @@ def run(args: argparse.Namespace) -> int:
         from rac.ros2.observe import run_observe
     else:
         from rac.ros1.observe import run_observe
-    run_observe(specs, sample_hz=args.rate, name=name, machine=machine, launch=args.launch or None)
+    run_observe(
+        specs,
+        sample_hz=args.rate,
+        name=name,
+        machine=machine,
+        launch=args.launch or None,
+        settle_s=args.settle,
+    )
     return 0

@@ -7,7 +7,8 @@ from typing import Any
 
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC
 from rac.ros1.common import log_to_ros, raw_class, require_ros, to_array
-from rac.runtime.demo import DemoNode, DemoRunner, LiveTopic, start_body
+from rac.runtime.body import start_body
+from rac.runtime.demo import DemoNode, DemoRunner, LiveTopic
 from rac.runtime.status import rows_from_array
 
 

@@ -14,7 +14,7 @@ from rac.ros1.agent import start_agent
 from rac.ros1.common import Ros1Bus, connection_type, node_liveness
 from rac.runtime.host import ObserverHost
 from rac.runtime.nodes import run_observer_node
-from rac.runtime.procs import ProcessProbe
+from rac.runtime.procs import DEFAULT_SETTLE_S, ProcessProbe
 from rac.runtime.status import rows_from_array
 from rac.runtime.values import Readers
 
@@ -27,6 +27,7 @@ def run_observe(
     name: str = "racc_observer",
     machine: str | None = None,
     launch: str | None = None,
+    settle_s: float = DEFAULT_SETTLE_S,
 ) -> None:
     bus = Ros1Bus(name)
     rospy = bus.rospy
@@ -52,7 +53,7 @@ def run_observe(
         rospy.Subscriber(
             BOARD_TOPIC, DiagnosticArray, lambda a: host.channel_rows(rows_from_array(a))
         )
-    probe = ProcessProbe(bank.nodes, node_liveness, bank.properties)
+    probe = ProcessProbe(bank.nodes, node_liveness, bank.properties, settle_s=settle_s)
     run_observer_node(
         bus,
         host,

@@ -9,6 +9,7 @@ messages, e.g. ``tedusar_msgs/msg/ServoState``) is published as the stand-in
 from __future__ import annotations
 
 import os
+import subprocess
 from typing import Any
 
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC
@@ -20,14 +21,17 @@ from rac.ros2.common import (
     sensor_qos,
     to_array,
 )
-from rac.runtime.demo import STAND_IN, DemoNode, DemoRunner, LiveTopic, start_body
+from rac.runtime.body import start_body
+from rac.runtime.demo import STAND_IN, DemoNode, DemoRunner, LiveTopic
 from rac.runtime.status import rows_from_array
 
 
-def run_demo_node(demo: DemoNode) -> None:
-    # The body carries this node's ROS arguments: found by its ``__node:=`` (innermost).
-    marker = ROS_ARGS if ROS_ARGS else ["--ros-args", "-r", f"__node:={demo.name}"]
-    body = start_body(marker)
+def run_demo_node(demo: DemoNode, body: subprocess.Popen[str] | None = None) -> None:
+    """Run the node; ``body``: its body, when the caller started it already."""
+    if body is None:
+        # The body carries this node's ROS arguments: found by its ``__node:=`` (innermost).
+        marker = ROS_ARGS if ROS_ARGS else ["--ros-args", "-r", f"__node:={demo.name}"]
+        body = start_body(marker)
     session = Session(demo.name)
     node = session.node
     from diagnostic_msgs.msg import DiagnosticArray

@@ -19,7 +19,7 @@ from rac.ros2.agent import start_agent
 from rac.ros2.common import PidResolver, Session, graph_nodes, message_class, sensor_qos
 from rac.runtime.host import ObserverHost
 from rac.runtime.nodes import run_observer_node
-from rac.runtime.procs import ProcessProbe
+from rac.runtime.procs import DEFAULT_SETTLE_S, ProcessProbe
 from rac.runtime.status import rows_from_array
 from rac.runtime.values import Readers
 
@@ -34,6 +34,7 @@ def run_observe(
     name: str = "racc_observer",
     machine: str | None = None,
     launch: str | None = None,
+    settle_s: float = DEFAULT_SETTLE_S,
 ) -> None:
     session = Session(name)
     from diagnostic_msgs.msg import DiagnosticArray
@@ -81,7 +82,7 @@ def run_observe(
                 DiagnosticArray, topic, lambda a, f=feed: f(rows_from_array(a)), sensor_qos()
             )
     resolver = PidResolver(lambda: graph_nodes(session))
-    probe = ProcessProbe(bank.nodes, resolver, bank.properties, recheck_s=1.0)
+    probe = ProcessProbe(bank.nodes, resolver, bank.properties, recheck_s=1.0, settle_s=settle_s)
     try:
         run_observer_node(
             session,

@@ -9,6 +9,12 @@ again; a node whose process has gone is resolved afresh (a restarted node has a 
 A node without a proven process is asked for again every ``resolve_every_s`` and has no
 cpu or memory samples: its properties stay unknown (:mod:`rac.runtime.placement`).
 
+A process is judged by its cpu and memory only once it has run ``settle_s``
+(:data:`DEFAULT_SETTLE_S`): a node's start-up (a Python node importing its libraries, a
+driver loading its configuration) keeps a core busy and grows its memory for a second or
+more, which against a limit of a few percent reads as an overload at every start, and
+after every repair that restarted the node.  Liveness is judged from the first moment.
+
 ROS 2 has no getPid: a node's process is found in the process table by the ``__node:=NAME``
 remapping on its command line (:func:`node_processes`), which ``ros2 launch``, ``ros2 run
 ... --ros-args -r __node:=NAME``, ``racc demo`` and ``racc repairer`` all put there.
@@ -31,6 +37,7 @@ REMOTE = -1
 # out): a busy node, not a dead one, until it has been so for UNANSWERED_HOLD_S.
 UNANSWERED = -2
 UNANSWERED_HOLD_S = 2.0
+DEFAULT_SETTLE_S = 5.0  # a process's start-up is not its steady state
 Resolved = int | Found | None
 
 
@@ -53,6 +60,8 @@ class ProcessProbe:
         properties: Iterable[tuple[str, str]] = (),
         resolve_every_s: float = 0.5,
         recheck_s: float | None = None,
+        settle_s: float = DEFAULT_SETTLE_S,
+        wall: Callable[[], float] = time.time,
     ) -> None:
         self.nodes = tuple(sorted(set(nodes) | {n for n, _ in properties}))
         self.properties = frozenset(properties)
@@ -62,6 +71,7 @@ class ProcessProbe:
         # process matches before its real one does (a wrapper, a demo node's body): a live
         # process is resolved again every ``recheck_s`` and replaced when another answers.
         self.recheck_s = recheck_s
+        self.settle_s, self.wall = settle_s, wall  # wall: epoch seconds, as psutil's
         self._procs: dict[str, psutil.Process] = {}
         self._asked: dict[str, float] = {}  # when the middleware was last asked
         self._alive: dict[str, bool] = {}
@@ -168,12 +178,23 @@ class ProcessProbe:
             if proc is None or not with_properties:
                 continue
             try:
-                if (node, "cpu") in self.properties:
-                    out.append(PropertySample(t, node, "cpu", proc.cpu_percent(None)))
-                if (node, "mem") in self.properties:
-                    out.append(PropertySample(t, node, "mem", float(proc.memory_info().rss)))
+                out += self._properties(node, proc, t)
             except psutil.Error:
                 self._procs.pop(node, None)
+        return out
+
+    def _properties(self, node: str, proc: psutil.Process, t: float) -> list[Event]:
+        """The node's cpu and memory samples; none while its process is settling."""
+        # cpu is read in every tick, settling or not: each reading covers the time since
+        # the one before, so the first judged one must not reach back into the start-up.
+        cpu = proc.cpu_percent(None) if (node, "cpu") in self.properties else None
+        if self.wall() - proc.create_time() < self.settle_s:
+            return []
+        out: list[Event] = []
+        if cpu is not None:
+            out.append(PropertySample(t, node, "cpu", cpu))
+        if (node, "mem") in self.properties:
+            out.append(PropertySample(t, node, "mem", float(proc.memory_info().rss)))
         return out
 
 

@@ -13,7 +13,7 @@ import time
 
 import pytest
 from live_harness import LiveRobot
-from soak_support import all_ok_since, plans, shown_plans, soak_under_load
+from soak_support import all_ok_since, plans, shown_plans, soak_under_load, timeline
 
 SOAK_SECONDS = 90.0
 SOAK_LOAD = 70
@@ -49,6 +49,10 @@ def test_robot_and_runtime_started_together_repair_nothing(robot: LiveRobot) -> 
     # At bring-up on ROS 2 the repairer "repaired" joy_node and jaguar_teleop_node, which
     # had simply not started yet: the runtime is launched here with the robot, not after
     # it, and a node never seen running has the bring-up grace (--startup-grace, 30 s).
+    # Later, on a loaded CI machine, all seven small nodes were "repaired" 5.7 s after the
+    # launch: their processes, measured while importing rclpy, read as cpu and memory
+    # overloads.  A process is now judged by its cpu and memory only once it has run
+    # --settle (5 s), and a demo node starts its body before its imports.
     watch = robot.watch
     launched = time.time()
     demo = robot.start_demo("together")
@@ -63,6 +67,7 @@ def test_robot_and_runtime_started_together_repair_nothing(robot: LiveRobot) -> 
             + (f"all ok after {ok - launched:.2f} s" if ok else "never all ok")
             + f"; repair: {shown_plans(acted, launched)}"
         )
+        print(timeline(watch, launched, acted[-1][0] + 1 if acted else time.time()))  # why
         assert not acted, "the repairer acted while the robot came up"
         assert ok is not None, "the robot never came up whole"
     finally:

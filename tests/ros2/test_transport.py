@@ -15,7 +15,7 @@ import pytest
 from rac.commands.common import ros_version
 from rac.errors import RacError
 from rac.load.ros_package import write_package
-from rac.ros2.common import split_ros_args
+from rac.ros2.args import split_ros_args
 from rac.ros2.launch import command_line, load_launch
 from rac.runtime.procs import innermost, node_processes, outermost
 

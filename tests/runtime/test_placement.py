@@ -234,7 +234,9 @@ def test_getpid_that_times_out_is_unanswered_and_a_refused_one_is_gone(
 
 
 def test_a_trusted_node_has_properties() -> None:
-    probe = ProcessProbe(["talker"], lambda n: Found(os.getpid(), "mine"), [("talker", "cpu")])
+    probe = ProcessProbe(
+        ["talker"], lambda n: Found(os.getpid(), "mine"), [("talker", "cpu")], settle_s=0
+    )
     events = probe.sample(0.0)
     assert [type(e) for e in events] == [NodeSample, PropertySample]
     assert [(n, f.watched) for n, f in probe.take_placements()] == [("talker", "process")]
@@ -242,7 +244,9 @@ def test_a_trusted_node_has_properties() -> None:
 
 def test_the_host_says_unknown_for_the_properties_of_a_middleware_node() -> None:
     found = [Found(os.getpid(), "mine")]
-    probe = ProcessProbe(["talker"], lambda n: found[0], [("talker", "cpu")], resolve_every_s=0)
+    probe = ProcessProbe(
+        ["talker"], lambda n: found[0], [("talker", "cpu")], resolve_every_s=0, settle_s=0
+    )
     host = ObserverHost(SPECS, clock=lambda: time.monotonic())
     loop = HostLoop(host, probe)
     for i in range(3):

@@ -19,6 +19,7 @@ from rac.load.theory import load_theory, robot_name
 from rac.logic import Atom
 from rac.observe import NodeSample, Verdict
 from rac.pipeline import compile_model
+from rac.runtime.body import start_body
 from rac.runtime.demo import (
     AfterRuntime,
     DemoNode,
@@ -28,7 +29,6 @@ from rac.runtime.demo import (
     is_observer_host,
     observer_host_started,
     parse_demo_fault,
-    start_body,
 )
 from rac.runtime.diagnoser import Diagnoser
 from rac.runtime.host import ObserverHost
@@ -204,7 +204,7 @@ def test_process_probe_asks_once_then_uses_the_pid() -> None:
         asked.append(node)
         return os.getpid() if node == "me" else None
 
-    probe = ProcessProbe(["me", "gone"], resolve, [("me", "mem")])
+    probe = ProcessProbe(["me", "gone"], resolve, [("me", "mem")], settle_s=0)
     first = probe.sample(0.0)
     later = probe.sample(0.1)
     assert asked == ["gone", "me"]  # "gone" is asked again only after resolve_every_s

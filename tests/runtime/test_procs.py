@@ -1,0 +1,81 @@
+"""The process probe's settling: a node's start-up is not judged by its cpu and memory."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+from collections.abc import Iterator, Sequence
+
+import psutil
+import pytest
+
+from rac.observe import NodeSample, PropertySample
+from rac.runtime.procs import DEFAULT_SETTLE_S, ProcessProbe
+
+# Busy for BUSY_S (a start-up: imports, loading), then idle for good.
+BUSY_S = 1.0
+START_UP = (
+    "import time\n"
+    f"end = time.time() + {BUSY_S}\n"
+    "while time.time() < end:\n"
+    "    pass\n"
+    "time.sleep(600)\n"
+)
+
+
+@pytest.fixture
+def starting_node() -> Iterator[psutil.Process]:
+    proc = subprocess.Popen([sys.executable, "-S", "-c", START_UP])
+    try:
+        yield psutil.Process(proc.pid)
+    finally:
+        proc.kill()
+        proc.wait(10)
+
+
+def kinds(events: Sequence[object]) -> list[str]:
+    return [type(e).__name__ for e in events]
+
+
+def test_a_young_process_is_running_but_has_no_properties_yet(
+    starting_node: psutil.Process,
+) -> None:
+    wall = [starting_node.create_time() + 1.0]
+    probe = ProcessProbe(
+        ["driver"],
+        lambda _: starting_node.pid,
+        [("driver", "cpu"), ("driver", "mem")],
+        wall=lambda: wall[0],
+    )
+    first = probe.sample(0.0)
+    assert kinds(first) == ["NodeSample"]
+    assert isinstance(first[0], NodeSample) and first[0].running
+    wall[0] = starting_node.create_time() + DEFAULT_SETTLE_S - 0.01
+    assert kinds(probe.sample(0.1)) == ["NodeSample"]
+    wall[0] = starting_node.create_time() + DEFAULT_SETTLE_S
+    assert kinds(probe.sample(0.2)) == ["NodeSample", "PropertySample", "PropertySample"]
+
+
+def test_the_first_judged_cpu_sample_leaves_the_start_up_out(
+    starting_node: psutil.Process,
+) -> None:
+    # Sampled through the busy start-up and past it; the first sample after settling
+    # covers only the tick before it, not the time since the process was found.
+    settle = BUSY_S + 0.5
+    probe = ProcessProbe(
+        ["driver"], lambda _: starting_node.pid, [("driver", "cpu")], settle_s=settle
+    )
+    samples: list[PropertySample] = []
+    begun = time.monotonic()
+    while not samples and time.monotonic() - begun < 30:
+        samples += [e for e in probe.sample(time.monotonic()) if isinstance(e, PropertySample)]
+        time.sleep(0.1)
+    assert samples, "no cpu sample once the process had settled"
+    assert time.time() - starting_node.create_time() >= settle
+    assert samples[0].value < 25.0, f"the start-up's cpu leaked into {samples[0].value:.0f} %"
+
+
+def test_settle_zero_judges_from_the_first_sample(starting_node: psutil.Process) -> None:
+    probe = ProcessProbe(["driver"], lambda _: starting_node.pid, [("driver", "mem")], settle_s=0)
+    assert kinds(probe.sample(0.0)) == ["NodeSample", "PropertySample"]
