@@ -193,6 +193,48 @@ def test_record_learn_compile_relaunch_diagnoses_a_crash(robot: LiveRobot) -> No
         robot.stop_scene(demo, runtime)
 
 
+def test_a_node_over_its_cpu_limit_is_restarted_and_verified(robot: LiveRobot) -> None:
+    # A restarted process gives no cpu sample while it settles (5 s, racc observe
+    # --settle): the overload's verdict stands until then, and the repair must still be
+    # verified within the repairer's --verify-timeout (10 s).
+    watch = robot.watch
+    burn_at = 15.0
+    demo = robot.start_demo("cpu", [f"cpu@+{burn_at:g}:imu_node"])
+    runtime: list[subprocess.Popen[bytes]] = []
+    try:
+        robot.wait_demo(60)
+        runtime = robot.launch_runtime(demo, board=False)
+        burn = runtime_seen() + burn_at
+        named = watch.wait(named_since(watch, burn, "imu_node"), burn - time.time() + 15)
+        assert named is not None, "the cpu overload was not diagnosed"
+
+        def verified() -> float | None:
+            with watch.lock:
+                done = [
+                    t
+                    for t, action, _, level, msg in watch.repair_log
+                    if t >= named and action == "verify" and "no fault: repaired" in msg
+                ]
+            return done[0] if done else None
+
+        done = watch.wait(verified, 40)
+        with watch.lock:
+            log = [
+                (round(t - burn, 2), a, lv, m) for t, a, _, lv, m in watch.repair_log if t >= burn
+            ]
+        assert done is not None, f"the restart was not verified: {log}"
+        assert logged(watch, named, "start_node", "imu_node"), log
+        # The first plan's restart is verified: no "ran but the diagnosis is still" before.
+        failed = [e for e in log if (e[1] == "verify" and e[2]) or e[1] == "escalate"]
+        assert not failed, failed
+        print(
+            f"\n{robot.ros.id}: cpu overload diagnosed after {named - burn:.2f} s, "
+            f"restart verified after {done - burn:.2f} s"
+        )
+    finally:
+        robot.stop_scene(demo, runtime)
+
+
 def test_a_node_the_repair_engine_started_outlives_the_runtime(robot: LiveRobot) -> None:
     # Ctrl-C on observers.launch used to take every node the repair engine had restarted
     # with it (roslaunch scriptapi children): they belong to the robot.
