@@ -272,8 +272,3 @@ def connection_type(msg: Any) -> tuple[str, str]:
     """(type, message definition) from an AnyMsg's connection header."""
     header = getattr(msg, "_connection_header", None) or {}
     return str(header.get("type", "")), str(header.get("message_definition", ""))
-
-
-def strip_ros_args(argv: Sequence[str]) -> list[str]:
-    """The command line without roslaunch's ``__name:=…``, ``__log:=…`` and remappings."""
-    return [a for a in argv if ":=" not in a]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import subprocess
 from typing import Any
 
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC
@@ -12,14 +13,16 @@ from rac.runtime.demo import DemoNode, DemoRunner, LiveTopic
 from rac.runtime.status import rows_from_array
 
 
-def run_demo_node(demo: DemoNode) -> None:
+def run_demo_node(demo: DemoNode, body: subprocess.Popen[str] | None = None) -> None:
+    """Run the node; ``body``: its body, when the caller started it already."""
+    # The body's command line names the node: the pid getPid answers must be proven to be
+    # the node's (rac.runtime.placement) before racc watches it.
+    if body is None:
+        body = start_body([f"__name:={demo.name.strip('/').rpartition('/')[2]}"])
     rospy = require_ros()
     import rospy.impl.masterslave as masterslave
     from diagnostic_msgs.msg import DiagnosticArray
 
-    # The body's command line names the node: the pid getPid answers must be proven to be
-    # the node's (rac.runtime.placement) before racc watches it.
-    body = start_body([f"__name:={demo.name.strip('/').rpartition('/')[2]}"])
     masterslave.ROSHandler.getPid = lambda _self, _caller: (1, "", body.pid)
     rospy.init_node(demo.name)
     pubs = {

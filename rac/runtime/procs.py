@@ -52,6 +52,21 @@ def as_found(resolved: Resolved) -> Found | None:
     return Found(resolved, f"pid {resolved}")
 
 
+def seconds_since_boot() -> float:
+    """The clock a process's start is counted on (Linux: CLOCK_BOOTTIME, which no change
+    of the wall clock moves)."""
+    if hasattr(time, "CLOCK_BOOTTIME"):
+        return time.clock_gettime(time.CLOCK_BOOTTIME)
+    return time.time() - psutil.boot_time()
+
+
+def started_since_boot(proc: psutil.Process) -> float:
+    """When ``proc`` started, in seconds since boot.  psutil's create_time adds the boot
+    time of /proc/stat, in whole seconds, to the exact start since boot: as an epoch time it
+    is up to 1 s early, and the difference takes that error out again."""
+    return proc.create_time() - psutil.boot_time()
+
+
 class ProcessProbe:
     def __init__(
         self,
@@ -61,7 +76,7 @@ class ProcessProbe:
         resolve_every_s: float = 0.5,
         recheck_s: float | None = None,
         settle_s: float = DEFAULT_SETTLE_S,
-        wall: Callable[[], float] = time.time,
+        since_boot: Callable[[], float] | None = None,
     ) -> None:
         self.nodes = tuple(sorted(set(nodes) | {n for n, _ in properties}))
         self.properties = frozenset(properties)
@@ -71,7 +86,8 @@ class ProcessProbe:
         # process matches before its real one does (a wrapper, a demo node's body): a live
         # process is resolved again every ``recheck_s`` and replaced when another answers.
         self.recheck_s = recheck_s
-        self.settle_s, self.wall = settle_s, wall  # wall: epoch seconds, as psutil's
+        self.settle_s = settle_s
+        self.since_boot = since_boot or seconds_since_boot
         self._procs: dict[str, psutil.Process] = {}
         self._asked: dict[str, float] = {}  # when the middleware was last asked
         self._alive: dict[str, bool] = {}
@@ -188,7 +204,7 @@ class ProcessProbe:
         # cpu is read in every tick, settling or not: each reading covers the time since
         # the one before, so the first judged one must not reach back into the start-up.
         cpu = proc.cpu_percent(None) if (node, "cpu") in self.properties else None
-        if self.wall() - proc.create_time() < self.settle_s:
+        if self.since_boot() - started_since_boot(proc) < self.settle_s:
             return []
         out: list[Event] = []
         if cpu is not None:

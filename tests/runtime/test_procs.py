@@ -11,7 +11,12 @@ import psutil
 import pytest
 
 from rac.observe import NodeSample, PropertySample
-from rac.runtime.procs import DEFAULT_SETTLE_S, ProcessProbe
+from rac.runtime.procs import (
+    DEFAULT_SETTLE_S,
+    ProcessProbe,
+    seconds_since_boot,
+    started_since_boot,
+)
 
 # Busy for BUSY_S (a start-up: imports, loading), then idle for good.
 BUSY_S = 1.0
@@ -41,19 +46,20 @@ def kinds(events: Sequence[object]) -> list[str]:
 def test_a_young_process_is_running_but_has_no_properties_yet(
     starting_node: psutil.Process,
 ) -> None:
-    wall = [starting_node.create_time() + 1.0]
+    start = started_since_boot(starting_node)
+    now = [start + 1.0]
     probe = ProcessProbe(
         ["driver"],
         lambda _: starting_node.pid,
         [("driver", "cpu"), ("driver", "mem")],
-        wall=lambda: wall[0],
+        since_boot=lambda: now[0],
     )
     first = probe.sample(0.0)
     assert kinds(first) == ["NodeSample"]
     assert isinstance(first[0], NodeSample) and first[0].running
-    wall[0] = starting_node.create_time() + DEFAULT_SETTLE_S - 0.01
+    now[0] = start + DEFAULT_SETTLE_S - 0.01
     assert kinds(probe.sample(0.1)) == ["NodeSample"]
-    wall[0] = starting_node.create_time() + DEFAULT_SETTLE_S
+    now[0] = start + DEFAULT_SETTLE_S
     assert kinds(probe.sample(0.2)) == ["NodeSample", "PropertySample", "PropertySample"]
 
 
@@ -62,7 +68,7 @@ def test_the_first_judged_cpu_sample_leaves_the_start_up_out(
 ) -> None:
     # Sampled through the busy start-up and past it; the first sample after settling
     # covers only the tick before it, not the time since the process was found.
-    settle = BUSY_S + 0.5
+    settle = BUSY_S + 1.5
     probe = ProcessProbe(
         ["driver"], lambda _: starting_node.pid, [("driver", "cpu")], settle_s=settle
     )
@@ -72,10 +78,23 @@ def test_the_first_judged_cpu_sample_leaves_the_start_up_out(
         samples += [e for e in probe.sample(time.monotonic()) if isinstance(e, PropertySample)]
         time.sleep(0.1)
     assert samples, "no cpu sample once the process had settled"
-    assert time.time() - starting_node.create_time() >= settle
+    assert seconds_since_boot() - started_since_boot(starting_node) >= settle
     assert samples[0].value < 25.0, f"the start-up's cpu leaked into {samples[0].value:.0f} %"
 
 
 def test_settle_zero_judges_from_the_first_sample(starting_node: psutil.Process) -> None:
     probe = ProcessProbe(["driver"], lambda _: starting_node.pid, [("driver", "mem")], settle_s=0)
     assert kinds(probe.sample(0.0)) == ["NodeSample", "PropertySample"]
+
+
+def test_a_process_age_is_exact_to_the_tick() -> None:
+    # psutil's create_time, an epoch time, carries the boot time in whole seconds: as an
+    # age it was up to 1 s too old, and the settling up to 1 s short.
+    before = seconds_since_boot()
+    proc = subprocess.Popen([sys.executable, "-S", "-c", "import time; time.sleep(60)"])
+    try:
+        started = started_since_boot(psutil.Process(proc.pid))
+    finally:
+        proc.kill()
+        proc.wait(10)
+    assert before - 0.02 <= started <= seconds_since_boot() + 0.02
