@@ -17,15 +17,24 @@ from rac.runtime.body import start_body
 
 
 def main(command: str, argv: Sequence[str]) -> int:
+    """Run the node; SIGINT (Ctrl-C, roslaunch or racc run stopping it) is a clean end,
+    also while racc is still being imported: exit 0 and no traceback."""
     marker = node_name_arg(argv) if command == "demo-node" else None
     # Without roslaunch's __name:= the marker needs the node's name: the body starts later.
     body = start_body([marker]) if marker else None
     args = strip_ros_args(argv)
-    if command == "demo-node":
-        return demo_node(args, body)
-    from rac.cli import main as racc
+    try:
+        if command == "demo-node":
+            return demo_node(args, body)
+        from rac.cli import main as racc
 
-    return racc([command, "--ros", "1", *args])
+        code = racc([command, "--ros", "1", *args])
+    except KeyboardInterrupt:
+        return 0
+    return 0 if code == INTERRUPTED else code
+
+
+INTERRUPTED = 130  # racc's exit code after a KeyboardInterrupt (rac.cli)
 
 
 def demo_node(argv: Sequence[str], body: subprocess.Popen[str] | None = None) -> int:

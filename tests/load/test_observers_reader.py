@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from rac.errors import RacError
@@ -283,6 +283,7 @@ _VALUES = st.one_of(
 
 
 @settings(max_examples=200, deadline=None)
+@example(entries=[("_", {"on": 0}, ["ok(_)"])])  # declined, and read the YAML way
 @given(
     st.lists(
         st.tuples(
@@ -309,10 +310,10 @@ def test_what_the_emitter_writes_is_read_back(
     }
     text = yaml_text.dump(doc)
     fast = racc_layout_document(text)
-    if text == yaml.safe_dump(doc, sort_keys=False, default_flow_style=False, width=1000):
-        assert repr(fast) == repr(yaml.safe_load(text))
-    if fast is None:  # declined: only for a value the emitter quotes
+    if fast is None:  # declined: only for a key or value the emitter quotes ('on': 0)
         assert "'" in text or '"' in text, text
+    else:  # what it reads is what YAML reads
+        assert repr(fast) == repr(yaml.safe_load(text))
 
 
 def _over_the_limit(entry: str) -> str:

@@ -135,8 +135,10 @@ def test_a_node_stopped_while_it_starts_ends_without_a_traceback(ros: int, tmp_p
 
     command = racc_command(ros, "engine")
     assert command is not None
-    # A slow import inside racc's (psutil, which the entry's modules import): SIGINT there.
-    (tmp_path / "psutil.py").write_text(
+    command.append(str(tmp_path / "model.yaml"))
+    # A slow import inside racc's (PyYAML, which reading the model needs; the entries import
+    # racc's modules only once their demo node's body is started): SIGINT there.
+    (tmp_path / "yaml.py").write_text(
         "import sys, time\nprint('importing', file=sys.stderr, flush=True)\ntime.sleep(30)\n"
     )
     env = {**os.environ, "PYTHONPATH": str(tmp_path)}
