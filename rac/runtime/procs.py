@@ -88,6 +88,8 @@ class ProcessProbe:
         self.recheck_s = recheck_s
         self.settle_s = settle_s
         self.since_boot = since_boot or seconds_since_boot
+        # node -> when its process has settled (since boot); written whenever one is adopted
+        self._settles_at: dict[str, float] = {}
         self._procs: dict[str, psutil.Process] = {}
         self._asked: dict[str, float] = {}  # when the middleware was last asked
         self._alive: dict[str, bool] = {}
@@ -143,13 +145,20 @@ class ProcessProbe:
             return False
         if found.pid is not None:
             try:
-                proc = psutil.Process(found.pid)
-                proc.cpu_percent(None)  # the first call only starts the measurement
-                self._procs[node] = proc
+                self._adopt(node, found.pid)
             except psutil.Error:
                 return False
         self._place(node, found)
         return True
+
+    def _adopt(self, node: str, pid: int) -> psutil.Process:
+        """Watch ``pid`` as the node's process from now on (raises psutil.Error)."""
+        proc = psutil.Process(pid)
+        proc.cpu_percent(None)  # the first call only starts the measurement
+        # Once per process: psutil's boot time reads /proc/stat at every call.
+        self._settles_at[node] = started_since_boot(proc) + self.settle_s
+        self._procs[node] = proc
+        return proc
 
     def _recheck(self, node: str, proc: psutil.Process, t: float) -> psutil.Process | None:
         assert self.recheck_s is not None
@@ -164,17 +173,16 @@ class ProcessProbe:
             self._place(node, found)
             return None
         try:
-            fresh = psutil.Process(found.pid)
-            fresh.cpu_percent(None)
+            fresh = self._adopt(node, found.pid)
         except psutil.Error:
             return proc
-        self._procs[node] = fresh
         self._place(node, found)
         return fresh
 
     def sample(self, t: float, with_properties: bool = True) -> list[Event]:
         """A liveness sample of every node that can be judged now, and its properties."""
         out: list[Event] = []
+        booted_s = self.since_boot()
         for node in self.nodes:
             proc = self._local(node)
             if proc is not None and self.recheck_s is not None:
@@ -194,17 +202,20 @@ class ProcessProbe:
             if proc is None or not with_properties:
                 continue
             try:
-                out += self._properties(node, proc, t)
+                out += self._properties(node, proc, t, booted_s)
             except psutil.Error:
                 self._procs.pop(node, None)
         return out
 
-    def _properties(self, node: str, proc: psutil.Process, t: float) -> list[Event]:
-        """The node's cpu and memory samples; none while its process is settling."""
+    def _properties(
+        self, node: str, proc: psutil.Process, t: float, booted_s: float
+    ) -> list[Event]:
+        """The node's cpu and memory samples at ``booted_s`` since boot; none while its
+        process is settling."""
         # cpu is read in every tick, settling or not: each reading covers the time since
         # the one before, so the first judged one must not reach back into the start-up.
         cpu = proc.cpu_percent(None) if (node, "cpu") in self.properties else None
-        if self.since_boot() - started_since_boot(proc) < self.settle_s:
+        if booted_s < self._settles_at[node]:
             return []
         out: list[Event] = []
         if cpu is not None:
