@@ -23,6 +23,7 @@ EXIT_OK = 0
 EXIT_INPUT = 1
 EXIT_USAGE = 2
 EXIT_NO_PLAN = 3
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, as a shell reports a Ctrl-C
 EXIT_INTERNAL = 70  # EX_SOFTWARE of sysexits.h: a bug in racc, never a verdict on the input
 
 # Each module defines ``register(subparsers)``; its parser sets ``run``.
@@ -164,7 +165,7 @@ def _main(argv: Sequence[str] | None) -> int:
         print(err.render(), file=sys.stderr)
         return EXIT_INPUT
     except KeyboardInterrupt:
-        return 130
+        return EXIT_INTERRUPTED
     except BrokenPipeError:
         # The reader went away (`racc … | head`): not an error of ours.  Point stdout at
         # /dev/null so that the interpreter's final flush does not complain either.

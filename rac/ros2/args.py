@@ -5,6 +5,10 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+# ROS arguments (``--ros-args -r __node:=NAME ...``) of this process: the executables of
+# the racc package put them here (:mod:`rac.entry_ros2`) before running a racc command.
+ROS_ARGS: list[str] = []
+
 
 def split_ros_args(argv: Sequence[str]) -> tuple[list[str], list[str]]:
     """(racc's arguments, ROS 2's): ``--ros-args ... [--]`` is ROS 2's, as rclpy reads it."""

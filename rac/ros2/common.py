@@ -15,6 +15,7 @@ from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
 from rac.errors import Diagnostic, RacError
+from rac.ros2.args import ROS_ARGS
 from rac.runtime.placement import Found, prove_by_cmdline
 from rac.runtime.procs import innermost, node_processes, process_table
 from rac.runtime.status import Row, rows_from_array
@@ -70,11 +71,6 @@ def require_rclpy() -> Any:
             [Diagnostic("RAC116", f"ROS 2 is not available to this Python: {err}", hint=HINT)]
         ) from None
     return rclpy
-
-
-# ROS arguments (``--ros-args -r __node:=NAME ...``) of this process: the executables of
-# the racc package put them here (:mod:`rac.entry_ros2`) before running a racc command.
-ROS_ARGS: list[str] = []
 
 
 class Session:

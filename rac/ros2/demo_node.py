@@ -13,8 +13,8 @@ import subprocess
 from typing import Any
 
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC
+from rac.ros2.args import ROS_ARGS
 from rac.ros2.common import (
-    ROS_ARGS,
     Session,
     message_class,
     reliable,
