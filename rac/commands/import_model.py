@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 from typing import Any
 
 from rac.commands.common import add_command, count
+from rac.commands.options import rate_hz
 from rac.errors import RacError
 from rac.fmt import format_model
 from rac.load.output import write_file_atomically
@@ -40,21 +40,11 @@ def register(sub: Any) -> None:
     parser.add_argument(
         "--default-rate",
         metavar="HZ",
-        type=_rate,
+        type=rate_hz,
         default=DEFAULT_RATE_HZ,
         help=f"the rate written for hz-observed topics (default {DEFAULT_RATE_HZ:g})",
     )
     parser.set_defaults(run=run)
-
-
-def _rate(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not math.isfinite(value) or value <= 0:
-        raise argparse.ArgumentTypeError(f"a rate must be > 0, not {text}")
-    return value
 
 
 def run(args: argparse.Namespace) -> int:

@@ -7,21 +7,12 @@ import math
 from typing import Any
 
 from rac.commands.common import add_command, add_ros_option, ros_version
+from rac.commands.options import rate_hz
 from rac.errors import Diagnostic, RacError
 from rac.load.files import load_observers
 from rac.observe import ObserverBank
 from rac.passes.machines import machines_of, on_machine
 from rac.runtime.procs import DEFAULT_SETTLE_S
-
-
-def positive_number(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not 0 < value < math.inf:
-        raise argparse.ArgumentTypeError("must be a number more than 0")
-    return value
 
 
 def seconds_or_zero(text: str) -> float:
@@ -53,7 +44,7 @@ def register(sub: Any) -> None:
     parser.add_argument("observers", metavar="OBSERVERS", help="observers.yaml")
     parser.add_argument(
         "--rate",
-        type=positive_number,
+        type=rate_hz,
         default=10.0,
         help="node and property samples per second (default: 10)",
     )

@@ -6,6 +6,7 @@ Commands import this module and :mod:`rac.commands.common`, never each other.
 from __future__ import annotations
 
 import argparse
+import math
 import re
 import sys
 from typing import Any
@@ -103,6 +104,17 @@ def require_json_for_good(args: argparse.Namespace, command: str) -> None:
             file=sys.stderr,
         )
         raise SystemExit(2)
+
+
+def rate_hz(text: str) -> float:
+    """argparse type: a rate in Hz, a finite number more than 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"a rate must be > 0, not {text}")
+    return value
 
 
 # -- the planner: --planner-timeout, --validate, --json (repair, scenario) --------------------
