@@ -12,6 +12,7 @@ from __future__ import annotations
 import re
 import subprocess
 import time
+from collections.abc import Callable
 from functools import partial
 
 import psutil
@@ -126,6 +127,23 @@ def test_demo_robot_faults_are_diagnosed_repaired_and_verified(robot: LiveRobot)
         robot.stop_scene(demo, runtime)
 
 
+def verified_since(watch: Watch, after: float) -> Callable[[], float | None]:
+    """When the repair engine first logged a plan verified ("no fault: repaired") after
+    ``after``."""
+
+    def check() -> float | None:
+        return next(
+            (
+                t
+                for t, action, _, _, msg in watch.since(after)
+                if action == "verify" and "no fault: repaired" in msg
+            ),
+            None,
+        )
+
+    return check
+
+
 def check_a_crash_during_a_repair(robot: LiveRobot, epoch: float) -> None:
     """imu_node crashes 2 s after jaguar_node, while jaguar_node is being restarted: both
     are repaired and verified, the second without a failed verification of the first."""
@@ -138,16 +156,8 @@ def check_a_crash_during_a_repair(robot: LiveRobot, epoch: float) -> None:
     assert logged(watch, first, "start_node", "jaguar_node")
     print(f"time to recover from a crash during a repair: {ok_again - second:.2f} s")
 
-    def verified() -> float | None:
-        done = [
-            t
-            for t, action, _, _, msg in watch.repair_log
-            if t >= second and action == "verify" and "no fault: repaired" in msg
-        ]
-        return done[0] if done else None
-
     # The repair log can trail the observations by a tick.
-    assert watch.wait(verified, 5) is not None, "the repairs were not verified"
+    assert watch.wait(verified_since(watch, second), 5) is not None, "the repairs were not verified"
     with watch.lock:
         verify = [
             (level, msg)
@@ -207,21 +217,8 @@ def test_a_node_over_its_cpu_limit_is_restarted_and_verified(robot: LiveRobot) -
         burn = runtime_seen() + burn_at
         named = watch.wait(named_since(watch, burn, "imu_node"), burn - time.time() + 15)
         assert named is not None, "the cpu overload was not diagnosed"
-
-        def verified() -> float | None:
-            with watch.lock:
-                done = [
-                    t
-                    for t, action, _, level, msg in watch.repair_log
-                    if t >= named and action == "verify" and "no fault: repaired" in msg
-                ]
-            return done[0] if done else None
-
-        done = watch.wait(verified, 40)
-        with watch.lock:
-            log = [
-                (round(t - burn, 2), a, lv, m) for t, a, _, lv, m in watch.repair_log if t >= burn
-            ]
+        done = watch.wait(verified_since(watch, named), 40)
+        log = [(round(t - burn, 2), a, lv, m) for t, a, _, lv, m in watch.since(burn)]
         assert done is not None, f"the restart was not verified: {log}"
         assert logged(watch, named, "start_node", "imu_node"), log
         # The first plan's restart is verified: no "ran but the diagnosis is still" before.
