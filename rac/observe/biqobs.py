@@ -24,6 +24,11 @@ that turn at a rate close to a limit flip between "increasing" and "constant"
 independently and read as a sustained mismatch; a real divergence (one side clearly rising
 while the other is clearly flat or falling) still counts under the θ rule.
 
+A value beyond its field's plausible magnitude (:mod:`rac.observe.plausible`: a glitch, a
+stranger's message) is never added to a side's sums; every check within the window ω after
+it counts as a mismatch, so that a publisher that keeps sending such values breaks the
+relation, while a single one changes nothing (θ) and leaves nothing behind.
+
 Slopes are taken over receive times, so a starved receiver's clumps bend them: while the
 process feeding the observer is starved (:meth:`BiQObs.starved`), and for 3ω after (a trend
 needs samples up to 3ω/2 on either side of its own), a mismatch is not counted; a match is.
@@ -38,6 +43,7 @@ from rac.observe.base import Latch, Mismatch
 from rac.observe.events import Event, Message, Verdict
 from rac.observe.iobs import field_value, pair_needs
 from rac.observe.params import Params
+from rac.observe.plausible import bound
 from rac.observe.qobs import QObs, TrendAt
 from rac.passes.observers import DEFAULT_MISMATCH_THRESHOLD, ObserverSpec
 
@@ -57,6 +63,7 @@ class BiQObs:
         slope2 = None if p.optional_number("slope2") is None else p.positive("slope2")
         self.side1 = QObs(self.ws, p.flag("integral1"), slope1)
         self.side2 = QObs(self.ws, p.flag("integral2"), slope2)
+        self.side1.limit_abs, self.side2.limit_abs = bound(self.field1), bound(self.field2)
         self.needs = pair_needs(self.topic1, self.field1, self.topic2, self.field2)
         self._step = self.ws / 2
         self._next = math.nan  # the next grid instant
@@ -81,14 +88,20 @@ class BiQObs:
             self._next = t + self._step
         checks = 0
         while self._next <= t:
-            pair = self._aligned()
+            # A refused value within the window is a violation once the pair is judged at
+            # all, whether or not the sides still have trends of the same time.
+            glitch = self._latch.positive is not None and (
+                self.side1.implausible(self._next) or self.side2.implausible(self._next)
+            )
+            pair = None if glitch else self._aligned()
             # Without both trends, or once the counter can no longer move (the trends stay
             # as they are until the next event), the remaining instants change nothing.
-            if pair is None or checks > self._mismatch.cap:
+            if (pair is None and not glitch) or checks > self._mismatch.cap:
                 self._next += (math.floor((t - self._next) / self._step) + 1) * self._step
                 break
-            a, b = pair
-            matched = a.admits(b.trend) or b.admits(a.trend)
+            matched = pair is not None and (
+                pair[0].admits(pair[1].trend) or pair[1].admits(pair[0].trend)
+            )
             if matched or not (self._starved or self._next < self._settled):
                 self._latch.report(self._next, self._mismatch.check(matched), out)
             checks += 1

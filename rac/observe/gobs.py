@@ -31,7 +31,9 @@ Decisions where the text leaves room:
   makes a healthy topic read about one clump too fast in every check.
 - **The occurrence's time**: receive time, or the publisher's header stamp while stamps
   are trusted (:class:`StampTrust`: present, increasing but for a bag's loop, and running
-  at the rate of the arrivals over ``agree_s``).  The window is placed by receive time either way;
+  at the rate of the arrivals over ``agree_s``), and only in a window whose stamps span the
+  time its arrivals span, give or take the window (one wild stamp, from 1970 or an hour
+  ahead, times its windows by arrival).  The window is placed by receive time either way;
   only μ is taken from the stamps, so a receiver that was late and got the messages in a
   clump still sees the publisher's cadence.
 - **The bound** |μ − δ| ≤ σ is taken with a slack of :data:`RESOLUTION_S` (1 ns, the
@@ -297,7 +299,13 @@ class GObs:
             first, n = after[0], len(after)
         if first.stamp is None:
             return None
-        return (closing.stamp - first.stamp) / n
+        span = closing.stamp - first.stamp
+        # A stamp far from its neighbours (a clock from 1970, an hour off, a glitch) says
+        # nothing about the cadence: stamps that disagree with the arrivals by more than a
+        # window time this window by arrival instead.
+        if abs(span - (closing.t - first.t)) > max(self.window, 1.0):
+            return None
+        return span / n
 
     def _slide(self, closing: Occurrence) -> None:
         """O_mid moves on, one occurrence at a time, until ``closing`` falls in the window

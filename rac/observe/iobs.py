@@ -11,6 +11,10 @@ topic) is one check.  Missing or non-finite values are skipped.
 The bound is that of the decimal numbers the model and the messages write: |v1 − v2| ≤ Δ up
 to two units in the last place of the largest of the three (1.1 − 1.0 is
 0.10000000000000009 in binary floating point, yet within Δ = 0.1).
+
+A value beyond its field's plausible magnitude (:mod:`rac.observe.plausible`) is a failed
+check, and is not kept as the side's latest value: it counts once against the pair and
+leaves nothing behind for the next message.
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ from typing import ClassVar
 from rac.observe.base import Latch, Mismatch, Needs
 from rac.observe.events import Event, Message, Verdict
 from rac.observe.params import Params
+from rac.observe.plausible import bound, plausible
 from rac.passes.observers import DEFAULT_MISMATCH_THRESHOLD, ObserverSpec
 
 
@@ -59,17 +64,26 @@ class IObs:
         self._v2: float | None = None
         self._mismatch = Mismatch(p.count("mismatch_th", DEFAULT_MISMATCH_THRESHOLD))
         self._latch = Latch(p.atom())
+        self._limit1, self._limit2 = bound(self.field1), bound(self.field2)
 
     def feed(self, event: Event) -> list[Verdict]:
         out: list[Verdict] = []
         if not isinstance(event, Message):
             return out
-        fresh = False
+        fresh = glitch = False
         if event.topic == self.topic1 and (v := field_value(event, self.field1)) is not None:
-            self._v1, fresh = v, True
+            if plausible(v, self._limit1):
+                self._v1, fresh = v, True
+            else:
+                glitch = True
         if event.topic == self.topic2 and (v := field_value(event, self.field2)) is not None:
-            self._v2, fresh = v, True
-        if fresh and self._v1 is not None and self._v2 is not None:
+            if plausible(v, self._limit2):
+                self._v2, fresh = v, True
+            else:
+                glitch = True
+        if glitch and self._latch.positive is not None:
+            self._latch.report(event.t, self._mismatch.check(False), out)
+        elif fresh and self._v1 is not None and self._v2 is not None:
             good = within(self._v1, self._v2, self.max_diff)
             self._latch.report(event.t, self._mismatch.check(good), out)
         return out

@@ -40,6 +40,18 @@ Cost: O(1) amortised per sample.  Each regression keeps running sums over a dequ
 window; times and values are taken relative to an origin that moves to the newest sample
 every :data:`REBASE_EVERY` samples, when the sums are recomputed exactly, so neither the
 growing clock nor a growing integral cancels digits and additions leave no drift.
+
+**No value poisons the sums** (a glitching driver, or a stranger's message).  A value that
+is not finite, or beyond its field's plausible magnitude (:mod:`rac.observe.plausible`), is
+never pushed: :meth:`QObs.push` refuses it and remembers when (:meth:`QObs.implausible`),
+which BiQObs counts against the pair for one window.  Within the plausible range a value
+can still dwarf the rest of its window (a spike of 1e9 among values near 1): subtracting it
+from the running sums when it leaves would leave rounding residue of its own size, so a
+sample that large leaving the window makes the sums be recomputed exactly, about the newest
+sample (:meth:`SlidingSlope._remove`).  The integral's running sum is moved back to zero
+(with the window's values, which leaves every slope as it was) whenever it grows past
+:data:`RECENTRE_AT`, so that a large integral never swallows the increments that follow.
+The observer is therefore exact again one window after any value.
 """
 
 from __future__ import annotations
@@ -49,6 +61,8 @@ import math
 from collections import deque
 from dataclasses import dataclass
 from enum import IntEnum
+
+from rac.observe.plausible import GENERIC_BOUND, plausible
 
 
 class Trend(IntEnum):
@@ -66,6 +80,10 @@ HISTORY = 2000  # |β| samples kept, one per half window (about 17 minutes at ω
 MIN_HISTORY = 20  # samples before the first trend (10 s at ω = 1 s)
 MARGIN = 2.0  # how far from a limit a slope must lie to be clearly on one side of it
 REBASE_EVERY = 1024
+# A sample whose squared distance from the origin exceeds this many times the mean of the
+# rest of its window leaves the sums by an exact recomputation, not a subtraction.
+RESUM_RATIO = 1e6
+RECENTRE_AT = 1e6  # an integral's running sum beyond this is moved back to zero
 
 
 class SlidingSlope:
@@ -76,6 +94,7 @@ class SlidingSlope:
         "_centres",
         "_n",
         "_st",
+        "_stale",
         "_stt",
         "_stv",
         "_sv",
@@ -94,6 +113,7 @@ class SlidingSlope:
         self._n = 0
         self._st = self._stt = self._sv = self._stv = self._svv = 0.0
         self._adds = 0
+        self._stale = False  # a sample too large to subtract left: recompute the sums
 
     def push(self, t: float, v: float) -> list[tuple[float, float, float]]:
         """Add a sample; return (time, slope, standard error of the slope) for every sample
@@ -104,6 +124,8 @@ class SlidingSlope:
             low = centre - self.half
             while self._win[0][0] < low:
                 self._remove(*self._win.popleft())
+            if self._stale:
+                self._rebase(*self._win[-1])
             out.append((centre, *self._slope()))
         if self._adds >= REBASE_EVERY or not self._win:
             self._rebase(t, v)
@@ -130,6 +152,16 @@ class SlidingSlope:
         self._sv -= y
         self._stv -= x * y
         self._svv -= y * y
+        # What the subtraction left is rounding residue of the removed sample's size: when
+        # that sample dwarfs the rest of the window, the sums are recomputed instead.
+        if y * y > RESUM_RATIO * abs(self._svv) / max(self._n, 1):
+            self._stale = True
+
+    def shift(self, dv: float) -> None:
+        """Every value of the window less ``dv``: the slopes stay as they are (the sums are
+        about an origin that moves with them), and the values become small again."""
+        self._win = deque((t, v - dv) for t, v in self._win)
+        self._v0 -= dv
 
     def _rebase(self, t: float, v: float) -> None:
         self._t0, self._v0 = t, v
@@ -138,6 +170,7 @@ class SlidingSlope:
         for ts, vs in self._win:
             self._add(ts, vs)
         self._adds = 0
+        self._stale = False
 
     def _slope(self) -> tuple[float, float]:
         """The least-squares slope of the window and its standard error (0 when flat)."""
@@ -216,6 +249,8 @@ class QObs:
         self._s2: deque[float] = deque()
         self._sum = 0.0
         self._last_t = math.nan
+        self.limit_abs = GENERIC_BOUND  # the field's plausible magnitude (BiQObs sets it)
+        self.implausible_t = -math.inf  # when the last refused value came
         self.latest: Trend | None = None  # Θ_p: the last trend given
         self.latest_t = math.nan  # the time that trend belongs to
         self.latest_slope = math.nan  # β of that sample
@@ -223,6 +258,10 @@ class QObs:
         self.recent: deque[TrendAt] = deque()  # the trends of the last 2ω, oldest first
         self._scale = _Quantile(HISTORY, FLOOR_QUANTILE)
         self._scale_due = -math.inf  # when the next |β| joins the history
+
+    def implausible(self, t: float) -> bool:
+        """Whether a refused value came within the window ω before ``t``."""
+        return t - self.implausible_t <= self.ws
 
     def floor(self) -> float | None:
         """The smallest limit: a fraction of the typical fast slope; None while unknown."""
@@ -256,9 +295,15 @@ class QObs:
         relation sharing this trend: it is taken once."""
         if t == self._last_t:
             return []
+        if not plausible(v, self.limit_abs):
+            self.implausible_t = t  # evidence about the publisher, not a sample
+            return []
         self._last_t = t
         if self.integral:
             self._sum += v
+            if abs(self._sum) > RECENTRE_AT:
+                self._levels[0].shift(self._sum)
+                self._sum = 0.0
             v = self._sum
         l1, l2, l3 = self._levels
         out = []
