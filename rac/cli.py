@@ -54,6 +54,7 @@ COMMANDS = (
     "demo",
     "run",
     "watch",
+    "confirm",
     "ros-package",
 )
 

@@ -218,6 +218,10 @@ CODES: dict[str, str] = {
     "RAC141": "a machine declared twice",
     "RAC142": "an invalid machine or container name",
     "RAC143": "a node cannot be restarted on its machine or in its container",
+    # racc's control surfaces are authenticated (issue 34, docs/security.md).
+    "RAC150": "the robot's racc secret cannot be used (missing, readable by others, damaged)",
+    "RAC151": "racc confirm: no such repair plan awaits confirmation",
+    "RAC152": "racc confirm: no repairer answered",
     "RAC100": "subscribed topic has no publisher",
     "RAC101": "hardware driven by no node",
     "RAC102": "node with no topics",

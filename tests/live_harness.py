@@ -94,6 +94,7 @@ def check_runnable(ros: Ros) -> None:
 def environment(ros: Ros, tmp: Path) -> dict[str, str]:
     env = dict(os.environ)
     env["PYTHONUNBUFFERED"] = "1"
+    env["RACC_SECRET_FILE"] = str(tmp / "racc_secret")  # the robot's racc secret (a test's)
     if ros.version == 1:
         env.update(
             ROS_MASTER_URI=f"http://127.0.0.1:{free_port()}",
@@ -270,7 +271,9 @@ def live_robot(ros: Ros, tmp: Path) -> Iterator[LiveRobot]:
     # This process reads launch files with the same paths (rac.ros2.launch) and talks to
     # the same master or domain as its children.
     saved = dict(os.environ)
-    os.environ.update({k: v for k, v in env.items() if k.startswith(("ROS_", "AMENT", "FAST"))})
+    os.environ.update(
+        {k: v for k, v in env.items() if k.startswith(("ROS_", "AMENT", "FAST", "RACC_"))}
+    )
     procs = Processes(env, tmp)
     try:
         subprocess.run(

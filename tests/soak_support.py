@@ -52,6 +52,9 @@ class Watch:
     nodes: set[str] = field(default_factory=set)  # the graph's node names, once a second
     # The repair engine's status on /diagnostics: (time, level, message, values).
     repairer: list[tuple[float, int, str, dict[str, str]]] = field(default_factory=list)
+    # racc's other statuses on /diagnostics (what each node ignored, whether a host is
+    # blind): (time, name, level, message).
+    statuses: list[tuple[float, str, int, str]] = field(default_factory=list)
     # Reentrant: a condition given to wait() (which holds it) may read through since().
     lock: threading.RLock = field(default_factory=threading.RLock)
     ready: threading.Event = field(default_factory=threading.Event)
@@ -75,6 +78,9 @@ class Watch:
                 elif kind == "repairer":
                     for lv, msg, values in line["rows"]:
                         self.repairer.append((t, lv, msg, dict(values)))
+                elif kind == "status":
+                    for name, lv, msg in line["rows"]:
+                        self.statuses.append((t, name, lv, msg))
                 elif kind == "repair_log":
                     for name, hw, lv, msg in line["rows"]:
                         self.repair_log.append((t, name, hw, lv, msg))
@@ -303,6 +309,13 @@ def _callbacks() -> dict[str, Callable[[Any], None]]:
         ]
         if rows:
             _emit("repairer", rows)
+        others = [
+            (s.name, _level(s), s.message)
+            for s in a.status
+            if s.name.startswith("racc_") and not s.name.endswith(": repair")
+        ]
+        if others:
+            _emit("status", others)
 
     return {"/observations": obs, "/diagnosis": diag, "/repair_log": log, "/diagnostics": status}
 

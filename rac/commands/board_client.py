@@ -8,7 +8,9 @@ from typing import Any
 from rac.board.channels import ChannelMap
 from rac.board.client import parse_address
 from rac.commands.common import add_command, add_ros_option, ros_version
+from rac.commands.options import add_secret_option
 from rac.load.files import load_observers
+from rac.load.secret import load_secret
 from rac.observe.hobs import parse_channels
 
 
@@ -38,6 +40,7 @@ def register(sub: Any) -> None:
         default=10,
         help="measurements per second the board is asked for (default: 10)",
     )
+    add_secret_option(parser)
     add_ros_option(parser)
     parser.set_defaults(run=run)
 
@@ -67,5 +70,10 @@ def run(args: argparse.Namespace) -> int:
         from rac.ros2.board_client import run_board_client
     else:
         from rac.ros1.board_client import run_board_client
-    run_board_client(args.board, channels_of(args.observers), hz=args.hz)
+    run_board_client(
+        args.board,
+        channels_of(args.observers),
+        hz=args.hz,
+        key=load_secret(args.secret or None),
+    )
     return 0

@@ -7,9 +7,10 @@ import math
 from typing import Any
 
 from rac.commands.common import add_command, add_ros_option, ros_version
-from rac.commands.options import rate_hz
+from rac.commands.options import add_secret_option, rate_hz
 from rac.errors import Diagnostic, RacError
-from rac.load.files import load_observers
+from rac.load.files import load_observer_file
+from rac.load.secret import load_secret
 from rac.observe import ObserverBank
 from rac.passes.machines import machines_of, on_machine
 from rac.runtime.procs import DEFAULT_SETTLE_S
@@ -70,12 +71,14 @@ def register(sub: Any) -> None:
         help="with --machine: the launch file the agent restarts this machine's nodes from "
         "(default: none; nodes in containers are restarted by their container)",
     )
+    add_secret_option(parser)
     add_ros_option(parser)
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    _, specs = load_observers(args.observers)
+    loaded = load_observer_file(args.observers)
+    specs = loaded.specs
     ObserverBank(specs)  # RAC050/RAC051 before any ROS work
     machine = args.machine or None
     if machine is not None and machine not in machines_of(specs):
@@ -104,5 +107,7 @@ def run(args: argparse.Namespace) -> int:
         machine=machine,
         launch=args.launch or None,
         settle_s=args.settle,
+        key=load_secret(args.secret or None),
+        sources=dict(loaded.sources) if loaded.sources is not None else None,
     )
     return 0

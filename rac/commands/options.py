@@ -257,3 +257,18 @@ def add_replay_options(parser: argparse.ArgumentParser) -> None:
         "e.g. 1s or 500ms (default: 1s)",
     )
     add_max_card_option(parser, 3, type=replay_card)
+
+
+# -- the robot's racc secret: --secret (observe, engine, repairer, board-client, confirm) ------
+
+
+def add_secret_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--secret",
+        metavar="FILE",
+        default="",
+        help="the robot's racc secret, the key racc's nodes seal their messages with: a file "
+        "only this user can read, the same on every computer of the robot (default: "
+        "$RACC_SECRET_FILE, else $ROS_HOME/racc/secret, else ~/.ros/racc/secret, made by the "
+        "first racc node that finds none; docs/security.md)",
+    )

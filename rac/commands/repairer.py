@@ -7,8 +7,10 @@ from pathlib import Path
 from typing import Any
 
 from rac.commands.common import add_command, add_ros_option, ros_version
+from rac.commands.options import add_secret_option
 from rac.errors import Diagnostic, RacError
 from rac.load.files import load_observers
+from rac.load.secret import load_secret
 from rac.load.theory import load_theory, robot_name
 from rac.logic import mangle
 from rac.observe.hobs import parse_channels
@@ -146,6 +148,7 @@ def register(sub: Any) -> None:
         "observers.yaml, else the first named there; the compiled launch file gives the "
         "model's first machine)",
     )
+    add_secret_option(parser)
     add_ros_option(parser)
     parser.set_defaults(run=run)
 
@@ -240,6 +243,7 @@ def run(args: argparse.Namespace) -> int:
         settings,
         placements=placements,
         machine=args.machine or (machines[0] if machines else None),
+        key=load_secret(args.secret or None),
     )
     if ros == 2:
         from rac.ros2.repairer import run_repairer as run2

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import os
 import stat
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, BinaryIO
 
@@ -16,7 +18,7 @@ from rac.perf import paused_gc
 
 if TYPE_CHECKING:  # the parsers and passes load on first use: `racc diagnose x.yaml` needs none
     from rac.ir import Model
-    from rac.passes.observers import ObserverSpec, ParamValue
+    from rac.passes.observers import ObserverSpec, ParamValue, TopicSource
 
 
 def read_text(path: str | Path, code: str = "RAC004") -> str:
@@ -110,9 +112,25 @@ def load_model(path: str | Path) -> Model:
     return parse_ram(text, str(path))
 
 
-@paused_gc()  # a large robot's observers are a million small objects, none cyclic (rac.perf)
 def load_observers(path: str | Path) -> tuple[str, tuple[ObserverSpec, ...]]:
-    """``observers.yaml`` (what ``racc compile`` writes): the robot's name and its observers.
+    """``observers.yaml`` (what ``racc compile`` writes): the robot's name and its observers
+    (:func:`load_observer_file` also gives the observed topics' sources)."""
+    loaded = load_observer_file(path)
+    return loaded.robot, loaded.specs
+
+
+@dataclass(frozen=True, slots=True)
+class ObserverFile:
+    robot: str
+    specs: tuple[ObserverSpec, ...]
+    # topic -> its type and publishers; None: the file has no 'topics' (an older racc)
+    sources: Mapping[str, TopicSource] | None
+
+
+@paused_gc()  # a large robot's observers are a million small objects, none cyclic (rac.perf)
+def load_observer_file(path: str | Path) -> ObserverFile:
+    """``observers.yaml`` (what ``racc compile`` writes): the robot's name, its observers,
+    and the type and publishers of each topic they read.
 
     RAC056 when the file is not of that shape; an observer's parameters are checked later,
     when the observer core builds it (RAC050/RAC051).
@@ -163,4 +181,25 @@ def load_observers(path: str | Path) -> tuple[str, tuple[ObserverSpec, ...]]:
         except ValueError as err:
             raise bad(f"observer '{name}': {err}") from None
         specs.append(ObserverSpec(kind, name, tuple(values), atoms))
-    return str(data.get("robot") or Path(path).resolve().parent.name), tuple(specs)
+    robot = str(data.get("robot") or Path(path).resolve().parent.name)
+    return ObserverFile(robot, tuple(specs), _sources(data.get("topics"), bad))
+
+
+def _sources(entries: object, bad: Callable[[str], RacError]) -> dict[str, TopicSource] | None:
+    if entries is None:
+        return None
+    if not isinstance(entries, list):
+        raise bad("'topics' must be a list")
+    from rac.passes.observers import TopicSource
+
+    out: dict[str, TopicSource] = {}
+    for i, entry in enumerate(entries, 1):
+        if not isinstance(entry, dict) or not isinstance(entry.get("topic"), str):
+            raise bad(f"topics entry {i} needs a 'topic'")
+        kind, publishers = entry.get("type"), entry.get("publishers") or []
+        if kind is not None and not isinstance(kind, str):
+            raise bad(f"topic '{entry['topic']}': 'type' must be a string")
+        if not isinstance(publishers, list) or not all(isinstance(n, str) for n in publishers):
+            raise bad(f"topic '{entry['topic']}': 'publishers' must be a list of node names")
+        out[entry["topic"]] = TopicSource(entry["topic"], kind, tuple(publishers))
+    return out

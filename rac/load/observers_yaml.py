@@ -15,6 +15,11 @@ entry, a few regex calls per observer::
         KEY: VALUE
       reports:
       - ATOM
+    topics:
+    - topic: TOPIC
+      type: TYPE
+      publishers:
+      - NODE
 
 :func:`racc_layout_document` gives exactly what ``yaml.safe_load`` gives, or None for any
 other text (then the caller reads it with the YAML path and its limits).  A line is accepted
@@ -54,6 +59,12 @@ _ENTRY = re.compile(
     rf"  reports:(?: \[\]\n|\n((?:  - {_SCALAR}\n)+))"
 )
 _PARAM = re.compile(rf"    ({_KEY}): ({_SCALAR})\n")
+# The topics section (the observed topics' types and publishers), after the observers.
+_TOPICS = re.compile(r"topics:(?: (\[\]))?\n")
+_SOURCE = re.compile(
+    rf"- topic: ({_SCALAR})\n  type: ({_SCALAR})\n"
+    rf"  publishers:(?: \[\]\n|\n((?:  - {_SCALAR}\n)+))"
+)
 _TAIL = re.compile(_COMMENT)  # after the last entry
 
 # yaml.SafeLoader's resolver: the tag of a plain scalar from its text (PyYAML is untyped).
@@ -102,15 +113,39 @@ def racc_layout_document(text: str) -> dict[str, Any] | None:
     scalars = _Scalars()
     try:
         if head.group(2):  # 'observers: []'
-            observers: list[dict[str, Any]] | None = [] if _ends_at(text, head.end()) else None
+            observers: list[dict[str, Any]] | None = []
+            pos = head.end()
         else:
             with paused_gc():  # hundreds of thousands of small dicts and lists, none cyclic
-                observers = _entries(text, head.end(), scalars)
+                observers, pos = _entries(text, head.end(), scalars)
         if observers is None:
             return None
-        return {"robot": scalars[head.group(1)], "observers": observers}
+        doc: dict[str, Any] = {"robot": scalars[head.group(1)], "observers": observers}
+        topics = _TOPICS.match(text, pos)
+        if topics is not None:
+            sources, pos = _sources(text, topics, scalars)
+            if sources is None:
+                return None
+            doc["topics"] = sources
+        return doc if _ends_at(text, pos) else None
     except _NotRaccLayout:
         return None
+
+
+def _sources(
+    text: str, head: re.Match[str], scalars: _Scalars
+) -> tuple[list[dict[str, Any]] | None, int]:
+    """The topics section from ``head`` on: its entries and where it ends."""
+    pos = head.end()
+    if head.group(1):  # 'topics: []'
+        return [], pos
+    out: list[dict[str, Any]] = []
+    while (found := _SOURCE.match(text, pos)) is not None:
+        pos = found.end()
+        topic, kind, block = found.groups()
+        publishers = [scalars[p] for p in block[4:-1].split("\n  - ")] if block else []
+        out.append({"topic": scalars[topic], "type": scalars[kind], "publishers": publishers})
+    return (out or None), pos
 
 
 def _ends_at(text: str, pos: int) -> bool:
@@ -119,8 +154,8 @@ def _ends_at(text: str, pos: int) -> bool:
     return tail is not None and tail.end() == len(text)
 
 
-def _entries(text: str, pos: int, scalars: _Scalars) -> list[dict[str, Any]] | None:
-    """The observers from ``pos`` to the end of the text, or None when not racc's layout."""
+def _entries(text: str, pos: int, scalars: _Scalars) -> tuple[list[dict[str, Any]] | None, int]:
+    """The observers from ``pos`` on (None when not racc's layout), and where they end."""
     entry, param = _ENTRY.match, _PARAM.findall
     observers: list[dict[str, Any]] = []
     append = observers.append
@@ -138,18 +173,18 @@ def _entries(text: str, pos: int, scalars: _Scalars) -> list[dict[str, Any]] | N
         if params_block:
             for key, value in param(params_block):
                 if len(key) > 120:
-                    return None  # racc writes such a key as a complex key ('? key')
+                    return None, pos  # racc writes such a key as a complex key ('? key')
                 params[scalars[key]] = scalars[value]
         reports = reports_block[4:-1].split("\n  - ") if reports_block else []
         remember(name)
         extend(reports)
         append({"kind": scalars[kind], "name": name, "params": params, "reports": reports})
-    if not observers or not _ends_at(text, pos):
-        return None
+    if not observers:
+        return None, pos
     try:
         yaml_text.check_plain(texts)
     except yaml_text.NotSimple:  # some name or report is not a plain string: resolve each
         for observer in observers:
             observer["name"] = scalars[observer["name"]]
             observer["reports"] = [scalars[report] for report in observer["reports"]]
-    return observers
+    return observers, pos

@@ -6,6 +6,7 @@ import math
 from collections.abc import Iterable
 from typing import TypeVar
 
+from rac.logic import Atom
 from rac.observe.base import Observer, TimingObserver, plain_node
 from rac.observe.build import build_all
 from rac.observe.events import (
@@ -17,7 +18,7 @@ from rac.observe.events import (
     PropertySample,
     Verdict,
 )
-from rac.passes.observers import ObserverSpec
+from rac.passes.observers import DIAGNOSTICS_TOPIC, ObserverSpec
 
 K = TypeVar("K")
 
@@ -33,6 +34,7 @@ class ObserverBank:
 
     def __init__(self, specs: Iterable[ObserverSpec]) -> None:
         self.observers: tuple[Observer, ...] = build_all(specs)
+        self._suspended: set[int] = set()  # observers fed nothing (suspend)
         self._topics: dict[str, list[int]] = {}
         self._nodes: dict[str, list[int]] = {}
         self._properties: dict[tuple[str, str], list[int]] = {}
@@ -57,8 +59,42 @@ class ObserverBank:
         self.properties = frozenset(self._properties)
         self.devices = frozenset(d for o in self.observers for d in o.needs.devices)
         self.needs_board = bool(self._channels)
-        self._timing = tuple(o for o in self.observers if isinstance(o, TimingObserver))
-        self._timed = tuple(o for o in self.observers if o.timed)  # the others never change
+        self._index()
+
+    def _index(self) -> None:
+        live = [o for i, o in enumerate(self.observers) if i not in self._suspended]
+        self._timing = tuple(o for o in live if isinstance(o, TimingObserver))
+        self._timed = tuple(o for o in live if o.timed)  # the others never change
+
+    def _readers(self, topic: str) -> list[int]:
+        """The observers of ``topic``'s messages; of ``/diagnostics``, the device observers."""
+        readers = list(self._topics.get(topic, []))
+        return readers + self._devices if topic == DIAGNOSTICS_TOPIC else readers
+
+    def suspend(self, topic: str) -> list[Atom]:
+        """Feed and advance none of the observers that read ``topic`` (its messages cannot
+        be told from a stranger's); the atoms they report, which are unknown from now on."""
+        found = [i for i in self._readers(topic) if i not in self._suspended]
+        self._suspended.update(found)
+        self._index()
+        return [a for i in found for a in self.observers[i].spec.atoms]
+
+    def resume(self, topic: str) -> None:
+        """The observers of ``topic`` start again, afresh: nothing of before counts (a
+        frequency observer would otherwise read the pause as silence)."""
+        found = [i for i in self._readers(topic) if i in self._suspended]
+        if not found:
+            return
+        fresh = build_all(self.observers[i].spec for i in found)
+        observers = list(self.observers)
+        for i, obs in zip(found, fresh, strict=True):
+            observers[i] = obs
+            self._suspended.discard(i)
+        self.observers = tuple(observers)
+        self._index()
+
+    def suspended(self, topic: str) -> bool:
+        return any(i in self._suspended for i in self._readers(topic))
 
     def topic_fields(self) -> dict[str, frozenset[str]]:
         """Topic -> the fields some observer reads (empty: only the occurrence counts)."""
@@ -80,8 +116,10 @@ class ObserverBank:
         else:
             targets = []
         out: list[Verdict] = []
+        suspended = self._suspended
         for i in targets:
-            out.extend(_ordered(self.observers[i].feed(event)))
+            if i not in suspended:
+                out.extend(_ordered(self.observers[i].feed(event)))
         return out
 
     def advance(self, t: float) -> list[Verdict]:

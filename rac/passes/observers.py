@@ -38,6 +38,37 @@ class ObserverSpec:
     atoms: tuple[Atom, ...]  # what it reports (each also negated)
 
 
+@dataclass(frozen=True, slots=True)
+class TopicSource:
+    """Where an observed topic's messages may come from: its type as the model declares it
+    (None: any) and the nodes that publish it (empty: the model names none, any counts).
+    The observer host feeds its observers only from these (issue 34)."""
+
+    topic: str
+    msg_type: str | None
+    publishers: tuple[str, ...]
+
+
+def topic_sources(model: Model, observers: tuple[ObserverSpec, ...]) -> tuple[TopicSource, ...]:
+    """The source of every topic an observer reads from a message, sorted by topic."""
+    read = {
+        str(value)
+        for o in observers
+        if o.kind in ("GObs", "BiQObs", "IObs")
+        for key, value in o.params
+        if key in ("topic", "topic1", "topic2")
+    }
+    publishers: dict[str, list[str]] = {}
+    for node in model.nodes:
+        for publication in node.publishes:
+            publishers.setdefault(publication.topic.value, []).append(node.name.value)
+    types = {t.name.value: t.msg_type for t in model.topics}
+    return tuple(
+        TopicSource(topic, types.get(topic), tuple(sorted(set(publishers.get(topic, ())))))
+        for topic in sorted(read)
+    )
+
+
 def gobs_timing(topic: Topic) -> tuple[float, float, float]:
     """δ = 1/rate, the interval deviation from the rate tolerance and ω, unrounded."""
     assert topic.rate_hz is not None

@@ -60,6 +60,8 @@ class Ros1Actuator:
         self.detached = Detached()
         self.KeyValue = KeyValue
         self.switches = rospy.Publisher("/board_switch", KeyValue, queue_size=10)
+        # A switch request's value as it goes out: sealed by the repairer (rac.runtime.trust).
+        self.sealed: Callable[[str, str], str] = lambda device, value: value
 
     def _entry(self, node: str) -> Any:
         key = "/" + node.lstrip("/")
@@ -161,7 +163,8 @@ class Ros1Actuator:
                     )
                 ]
             )
-        self.switches.publish(self.KeyValue(key=device, value="on" if on else "off"))
+        value = self.sealed(device, "on" if on else "off")
+        self.switches.publish(self.KeyValue(key=device, value=value))
 
     def reap(self) -> None:
         self.detached.reap()

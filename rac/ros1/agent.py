@@ -14,17 +14,19 @@ from rac.ros1.common import Ros1Bus
 from rac.runtime.nodes import RepairJob
 from rac.runtime.repairer import Actuator
 from rac.runtime.routing import Agent, RoutedActuator, agent_started, agent_topic, no_agent
+from rac.runtime.trust import AGENT
 
 CONNECT_S = 3.0  # for the agents' subscriptions to connect before the first request
 
 
-def routed_actuator(rospy: Any, job: RepairJob, local: Any) -> Actuator:
+def routed_actuator(bus: Ros1Bus, job: RepairJob, local: Any) -> Actuator:
     """``local`` for this machine's nodes, the agents of the others' through their topics
     (unchanged when the model places no node)."""
     if not job.placements:
         return local  # type: ignore[no-any-return]
     from diagnostic_msgs.msg import KeyValue
 
+    rospy, trust = bus.rospy, bus.trust
     others = sorted({m for m, _ in job.placements.values() if m and m != job.machine})
     pubs = {m: rospy.Publisher(agent_topic(m), KeyValue, queue_size=10) for m in others}
     deadline = time.time() + CONNECT_S
@@ -35,19 +37,28 @@ def routed_actuator(rospy: Any, job: RepairJob, local: Any) -> Actuator:
         pub = pubs.get(machine)
         if pub is None or pub.get_num_connections() == 0:
             raise no_agent(machine, node)
-        pub.publish(KeyValue(key=action, value=node))
+        value = trust.seal_kv(AGENT + machine, action, node) if trust is not None else node
+        pub.publish(KeyValue(key=action, value=value))
 
     return RoutedActuator(local, job.placements, job.machine, ask)
 
 
-def serve_agent(rospy: Any, agent: Agent) -> Any:
-    """Subscribe the agent to its machine's requests."""
+def serve_agent(bus: Ros1Bus, agent: Agent) -> Any:
+    """Subscribe the agent to its machine's requests: those the repairer sealed."""
     from diagnostic_msgs.msg import KeyValue
 
-    def receive(msg: Any) -> None:
-        agent.request(msg.key, msg.value)
+    topic, trust = agent_topic(agent.machine), bus.trust
+    gate = trust.gate(AGENT + agent.machine) if trust is not None else None
 
-    return rospy.Subscriber(agent_topic(agent.machine), KeyValue, receive, queue_size=20)
+    def receive(msg: Any) -> None:
+        if trust is None or gate is None:
+            agent.request(msg.key, msg.value)
+            return
+        admitted = trust.check_kv(topic, gate, msg.key, msg.value)
+        if admitted is not None:
+            agent.request(msg.key, admitted[0])
+
+    return bus.rospy.Subscriber(topic, KeyValue, receive, queue_size=20)
 
 
 def start_agent(
@@ -59,6 +70,6 @@ def start_agent(
         return None
     local = Ros1Actuator(bus.rospy, launch) if launch else None
     agent = Agent(machine, node_placements(specs), local)
-    serve_agent(bus.rospy, agent)
+    serve_agent(bus, agent)
     bus.log(0, agent_started(machine, launch))
     return agent

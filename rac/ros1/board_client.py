@@ -2,7 +2,8 @@
 
 The logic is :mod:`rac.runtime.board`'s; this node publishes each MSR on
 ``/board_measurements`` and queues the switch requests the repair node sends on
-``/board_switch`` (``diagnostic_msgs/KeyValue``: key the device, value ``on`` or ``off``).
+``/board_switch`` (``diagnostic_msgs/KeyValue``: key the device, value ``on`` or ``off``),
+which count only when the repairer sealed them (:mod:`rac.runtime.trust`).
 """
 
 from __future__ import annotations
@@ -11,33 +12,48 @@ from typing import Any
 
 from rac.board.channels import ChannelMap
 from rac.board.client import BoardAddress
-from rac.passes.observers import BOARD_TOPIC
-from rac.ros1.common import log_to_ros, require_ros, to_array
+from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC
+from rac.ros1.common import Ros1Bus
 from rac.runtime.board import SwitchRequests, run_board_link
+from rac.runtime.trust import BOARD_CLIENT, BOARD_SWITCH
 
 SWITCH_TOPIC = "/board_switch"
 
 
 def run_board_client(
-    address: BoardAddress, channels: ChannelMap, *, hz: int = 10, name: str = "racc_board_client"
+    address: BoardAddress,
+    channels: ChannelMap,
+    *,
+    hz: int = 10,
+    name: str = "racc_board_client",
+    key: bytes | None = None,
 ) -> None:
-    rospy = require_ros()
-    from diagnostic_msgs.msg import DiagnosticArray, KeyValue
+    bus = Ros1Bus(name, key, BOARD_CLIENT)
+    rospy = bus.rospy
+    from diagnostic_msgs.msg import KeyValue
 
-    rospy.init_node(name)
-    pub = rospy.Publisher(BOARD_TOPIC, DiagnosticArray, queue_size=10)
+    publish = bus.rows_publisher(BOARD_TOPIC, 10, purpose=BOARD_TOPIC)
+    status = bus.rows_publisher(DIAGNOSTICS_TOPIC, 10)
     requests = SwitchRequests()
+    trust = bus.trust
+    gate = trust.gate(BOARD_SWITCH) if trust is not None else None
 
     def on_switch(kv: Any) -> None:
-        requests.put(kv.key, kv.value)
+        if trust is None or gate is None:
+            requests.put(kv.key, kv.value)
+            return
+        admitted = trust.check_kv(SWITCH_TOPIC, gate, kv.key, kv.value)
+        if admitted is not None:
+            requests.put(kv.key, admitted[0])
 
     rospy.Subscriber(SWITCH_TOPIC, KeyValue, on_switch, queue_size=10)
     run_board_link(
         address,
         channels,
-        lambda rows: pub.publish(to_array(rows)),
+        publish,
         requests,
-        log_to_ros(rospy),
-        lambda: not rospy.is_shutdown(),
+        bus.log,
+        lambda: bus.ok,
         hz,
+        every_second=lambda: status([trust.row()]) if trust is not None else None,
     )

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import os
 import socket
+import threading
+import time
 import xmlrpc.client
 from collections.abc import Callable, Iterable, Sequence
 from typing import Any
@@ -17,6 +19,7 @@ from rac.errors import Diagnostic, RacError
 from rac.runtime.placement import Found, prove_ros1
 from rac.runtime.procs import UNANSWERED
 from rac.runtime.status import Row, rows_from_array
+from rac.runtime.trust import Gate, Trust
 
 CALLER = "/racc"
 XMLRPC_TIMEOUT_S = 0.5
@@ -163,12 +166,21 @@ def log_to_ros(rospy: Any) -> Any:
 
 
 class Ros1Bus:
-    """:class:`rac.runtime.nodes.Bus` over rospy: this process's node, started here."""
+    """:class:`rac.runtime.nodes.Bus` over rospy: this process's node, started here.
 
-    def __init__(self, name: str) -> None:
+    With a ``key`` and a ``role`` it seals and checks racc's messages
+    (:class:`rac.runtime.trust.Trust`), as its node name or as ``seal_as`` (an operator)."""
+
+    def __init__(
+        self, name: str, key: bytes | None = None, role: str = "", seal_as: str = ""
+    ) -> None:
         self.rospy = require_ros()
         self.rospy.init_node(name)
         self._log = log_to_ros(self.rospy)
+        sender = seal_as or self.name
+        self._trust = Trust(key, role, sender, self.log) if key is not None else None
+        if key is not None:  # racc's own nodes; a tool (racc watch) lives shorter
+            MasterRegistration(self).start()
 
     @property
     def name(self) -> str:
@@ -178,46 +190,190 @@ class Ros1Bus:
     def ok(self) -> bool:
         return not self.rospy.is_shutdown()
 
+    @property
+    def trust(self) -> Trust | None:
+        return self._trust
+
     def log(self, level: int, text: str) -> None:
         self._log(level, text)
 
     def rows_publisher(
-        self, topic: str, depth: int, latched: bool = False
+        self, topic: str, depth: int, latched: bool = False, purpose: str = ""
     ) -> Callable[[Sequence[Row]], None]:
         from diagnostic_msgs.msg import DiagnosticArray
 
         pub = self.rospy.Publisher(topic, DiagnosticArray, queue_size=depth, latch=latched)
-        return lambda rows: pub.publish(to_array(rows))
+        trust = self._trust if purpose else None
+
+        def publish(rows: Sequence[Row]) -> None:
+            seal = trust.seal_rows(purpose, rows) if trust is not None else ""
+            pub.publish(to_array(rows, frame_id=seal))
+
+        return publish
 
     def on_rows(
-        self, topic: str, callback: Callable[[list[Row]], None], depth: int, latched: bool = False
+        self,
+        topic: str,
+        callback: Callable[[list[Row]], None],
+        depth: int,
+        latched: bool = False,
+        gate: Gate | None = None,
     ) -> None:
         # A ROS 1 subscriber receives a latched publisher's last message anyway.
         from diagnostic_msgs.msg import DiagnosticArray
 
+        trust = self._trust if gate is not None else None
+
         def receive(array: Any) -> None:
-            callback(rows_from_array(array))
+            rows = rows_from_array(array)
+            sealed = array.header.frame_id
+            if (
+                trust is not None
+                and gate is not None
+                and not trust.check_rows(topic, gate, sealed, rows)
+            ):
+                return
+            callback(rows)
 
         self.rospy.Subscriber(topic, DiagnosticArray, receive, queue_size=depth)
 
-    def on_text(self, topic: str, callback: Callable[[str], None], depth: int) -> None:
+    def text_publisher(self, topic: str, depth: int) -> _Texts:
         from std_msgs.msg import String
 
+        return _Texts(self.rospy.Publisher(topic, String, queue_size=depth), String)
+
+    def on_text(
+        self,
+        topic: str,
+        callback: Callable[[str, str], None],
+        depth: int,
+        gate: Gate | None = None,
+    ) -> None:
+        from std_msgs.msg import String
+
+        trust = self._trust if gate is not None else None
+        shown = str(self.rospy.resolve_name(topic))  # ~confirm: /racc_repairer/confirm
+
         def receive(msg: Any) -> None:
-            callback(msg.data)
+            if trust is None or gate is None:
+                callback(msg.data, "")
+                return
+            admitted = trust.check_text(shown, gate, msg.data)
+            if admitted is not None:
+                callback(*admitted)
 
         self.rospy.Subscriber(topic, String, receive, queue_size=depth)
+
+
+class MasterRegistration:
+    """Keeps this node registered with the ROS master.  rospy registers a node once, at
+    start: after the master is restarted it knows none of the node's topics, so no new
+    publisher ever reaches it (a node restarted afterwards is never heard again).  Once a
+    second this thread asks the master for the node; when the master answers without it,
+    every publication, subscription and service of the node is registered again (as
+    rospy's registration manager does at start) and the connections follow the master's
+    answer.  Both the loss and the return are logged."""
+
+    def __init__(self, bus: Ros1Bus, period_s: float = 1.0) -> None:
+        self.bus, self.period_s = bus, period_s
+        self.answering = True
+
+    def start(self) -> None:
+        threading.Thread(target=self._watch, name="racc-registration", daemon=True).start()
+
+    def _watch(self) -> None:
+        rospy = self.bus.rospy
+        name = "/" + self.bus.name
+        while not rospy.is_shutdown():
+            time.sleep(self.period_s)
+            uri = str(rospy.get_node_uri() or "")
+            try:
+                code, _, found = proxy(master_uri(), 1.0).lookupNode(CALLER, name)
+            except (OSError, xmlrpc.client.Error):
+                if self.answering:
+                    self.answering = False
+                    self.bus.log(
+                        2, f"t={time.time():.3f} the ROS master at {master_uri()} does not answer"
+                    )
+                continue
+            if not self.answering:
+                self.answering = True
+                self.bus.log(
+                    0, f"t={time.time():.3f} the ROS master at {master_uri()} answers again"
+                )
+            if code == 1 and str(found).rstrip("/") == uri.rstrip("/"):
+                continue
+            self.bus.log(
+                1,
+                f"t={time.time():.3f} the ROS master has no record of {name} (it was "
+                "restarted): registering this node's topics again",
+            )
+            try:
+                counts = register_again(uri)
+            except (OSError, xmlrpc.client.Error) as err:
+                self.bus.log(2, f"t={time.time():.3f} registering again failed: {err}; retrying")
+                continue
+            self.bus.log(
+                0,
+                f"t={time.time():.3f} registered again with the master: {counts[0]} "
+                f"publications, {counts[1]} subscriptions, {counts[2]} services",
+            )
+
+
+def register_again(uri: str) -> tuple[int, int, int]:
+    """Register this rospy node's publications, subscriptions and services with the master
+    (after it lost them); the subscriptions connect to the publishers the master names."""
+    import rospy
+    from rospy.impl.registration import (
+        RegManager,
+        get_registration_listeners,
+        get_service_manager,
+        get_topic_manager,
+    )
+
+    master = proxy(master_uri(), 2.0)
+    caller = rospy.get_name()
+    topics, services = get_topic_manager(), get_service_manager()
+    managers = [m for m in get_registration_listeners().listeners if isinstance(m, RegManager)]
+    pubs, subs, srvs = (
+        topics.get_publications(),
+        topics.get_subscriptions(),
+        services.get_services(),
+    )
+    for topic, kind in pubs:
+        master.registerPublisher(caller, topic, kind, uri)
+    for topic, kind in subs:
+        code, _, publishers = master.registerSubscriber(caller, topic, kind, uri)
+        if code == 1:
+            for manager in managers:
+                manager.publisher_update(topic, publishers)
+    for service, service_uri in srvs:
+        master.registerService(caller, service, service_uri, uri)
+    return len(pubs), len(subs), len(srvs)
+
+
+class _Texts:
+    def __init__(self, pub: Any, cls: Any) -> None:
+        self._pub, self._cls = pub, cls
+
+    def __call__(self, text: str) -> None:
+        self._pub.publish(self._cls(data=text))
+
+    def listeners(self) -> int:
+        return int(self._pub.get_num_connections())
 
 
 # -- diagnostic statuses ---------------------------------------------------------------------
 
 
-def to_array(rows: Iterable[Row], stamp: Any = None) -> Any:
+def to_array(rows: Iterable[Row], stamp: Any = None, frame_id: str = "") -> Any:
+    """A ``DiagnosticArray`` of the rows; ``frame_id`` carries a racc seal."""
     import rospy
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
     array = DiagnosticArray()
     array.header.stamp = stamp if stamp is not None else rospy.Time.now()
+    array.header.frame_id = frame_id
     array.status = [
         DiagnosticStatus(
             level=r.level,

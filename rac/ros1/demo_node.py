@@ -6,6 +6,7 @@ import os
 import subprocess
 from typing import Any
 
+from rac.load.secret import load_secret
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC
 from rac.ros1.common import log_to_ros, raw_class, require_ros, to_array
 from rac.runtime.body import start_body
@@ -45,12 +46,13 @@ def run_demo_node(demo: DemoNode, body: subprocess.Popen[str] | None = None) -> 
         if status_pub is not None:
             status_pub.publish(to_array(rows))
 
-    runner = DemoRunner(demo, body, publish, status, log_to_ros(rospy))
+    key = load_secret() if demo.devices else None  # the board client seals what it sees
+    runner = DemoRunner(demo, body, publish, status, log_to_ros(rospy), key)
     if runner.channels:
         rospy.Subscriber(
             BOARD_TOPIC,
             DiagnosticArray,
-            lambda a: runner.board_rows(rows_from_array(a)),
+            lambda a: runner.board_rows(rows_from_array(a), a.header.frame_id),
             queue_size=5,
         )
     rospy.loginfo(

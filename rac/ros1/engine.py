@@ -11,6 +11,7 @@ from collections.abc import Callable
 from rac.diagnosis import Theory
 from rac.ros1.common import Ros1Bus
 from rac.runtime.nodes import run_engine_node
+from rac.runtime.trust import ENGINE
 
 
 def run_engine(
@@ -21,5 +22,17 @@ def run_engine(
     rate_hz: float = 1.0,
     max_card: int | None = None,
     name: str = "racc_engine",
+    key: bytes | None = None,
+    hosts: tuple[str, ...] = (),
+    reload_dir: str | None = None,
 ) -> None:
-    run_engine_node(Ros1Bus(name), path, load, robot, rate_hz=rate_hz, max_card=max_card)
+    run_engine_node(
+        Ros1Bus(name, key, ENGINE),
+        path,
+        load,
+        robot,
+        rate_hz=rate_hz,
+        max_card=max_card,
+        hosts=hosts,
+        reload_dir=reload_dir,
+    )

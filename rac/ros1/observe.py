@@ -2,21 +2,105 @@
 
 What it subscribes is this file's; the sample loop, the agent's turn and the publication
 rule are :func:`rac.runtime.nodes.run_observer_node`'s, shared with ROS 2.
+
+**Whose messages count** (:mod:`rac.runtime.sources`).  Every message of a ROS 1
+connection carries the connection header its publisher sent: its ``callerid`` and its
+``type``.  A publisher can write any ``callerid``, so a connection is judged once, on its
+first message: its type must be the model's, its ``callerid`` one of the topic's
+publishers in the model, and the XML-RPC URI the host connected to (the publisher the
+master announced) the one the master has for that ``callerid``.  A connection that fails
+is closed (a stranger's flood costs the host one message) and reported once; rospy opens
+it again only when the master announces the publisher again, and it is closed again at
+its first message.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import contextlib
+import time
+from collections.abc import Callable, Sequence
 from typing import Any
 
-from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec
+from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec, TopicSource
 from rac.ros1.agent import start_agent
-from rac.ros1.common import Ros1Bus, connection_type, node_liveness
+from rac.ros1.common import Ros1Bus, connection_type, node_liveness, node_uri
 from rac.runtime.host import ObserverHost
 from rac.runtime.nodes import run_observer_node
 from rac.runtime.procs import DEFAULT_SETTLE_S, ProcessProbe
+from rac.runtime.sources import SourceCheck
 from rac.runtime.status import rows_from_array
+from rac.runtime.trust import OBSERVER
 from rac.runtime.values import Readers
+
+LOOKUP_RETRY_S = 1.0  # a connection the master could not vouch for is asked about again
+
+
+class Connections:
+    """Which ROS 1 connections of the subscribed topics count (module docstring).
+
+    ``lookup(callerid)`` is the master's URI of a node (None: it has none; raises OSError
+    when the master does not answer).  Not locked: each connection's messages arrive on
+    its own thread, and a verdict is a value (judging one twice gives the same answer).
+    """
+
+    def __init__(
+        self,
+        check: SourceCheck,
+        refuse: Callable[[str, str, str], None],
+        lookup: Callable[[str], str | None],
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.check, self.refuse, self.lookup, self.clock = check, refuse, lookup, clock
+        self._verdicts: dict[int, tuple[Any, bool]] = {}  # id(header) -> (header, verdict)
+        self._retry: dict[int, float] = {}  # id(header) -> when to ask the master again
+
+    def admits(self, topic: str, header: Any, impl: Any, any_publisher: bool = False) -> bool:
+        """Whether a message with connection ``header`` on ``topic`` counts; ``impl`` is
+        the topic's rospy subscriber (its connections); ``any_publisher``: the topic has
+        many publishers by design (``/diagnostics``), only a forged callerid is refused."""
+        if not isinstance(header, dict):
+            return not self.check.known
+        hit = self._verdicts.get(id(header))
+        if hit is not None and hit[0] is header:
+            return hit[1]
+        verdict = self._judge(topic, header, impl, any_publisher)
+        if verdict is not None:
+            if len(self._verdicts) > 1000:
+                self._verdicts.clear()  # connections of the past: judged again if they come
+            self._verdicts[id(header)] = (header, verdict)
+        return bool(verdict)
+
+    def _judge(self, topic: str, header: dict[str, Any], impl: Any, anyone: bool) -> bool | None:
+        callerid = str(header.get("callerid", ""))
+        why = None if anyone else self.check.reason(topic, callerid, str(header.get("type", "")))
+        connection = next(
+            (c for c in list(getattr(impl, "connections", ())) if c.header is header), None
+        )
+        if why is None and callerid and connection is not None:
+            retry = self._retry.get(id(header), 0.0)
+            if self.clock() < retry:
+                return None
+            try:
+                uri = self.lookup(callerid)
+            except OSError:
+                self._retry[id(header)] = self.clock() + LOOKUP_RETRY_S
+                return None  # the master does not answer: nothing counts until it does
+            self._retry.pop(id(header), None)
+            if uri is None or uri.rstrip("/") != str(connection.endpoint_id).rstrip("/"):
+                why = (
+                    f"its connection says it is {callerid}, but the master has "
+                    f"{callerid} at {uri or 'no address'}, not at {connection.endpoint_id} "
+                    "(a forged callerid)"
+                )
+        if why is None:
+            return True
+        self.refuse(callerid, topic, why)
+        if connection is not None:
+            # A stranger's flood stops here; rospy's own bookkeeping may fail, the verdict
+            # stands either way.
+            with contextlib.suppress(Exception):
+                impl.remove_connection(connection)
+        return False
 
 
 def run_observe(
@@ -28,30 +112,48 @@ def run_observe(
     machine: str | None = None,
     launch: str | None = None,
     settle_s: float = DEFAULT_SETTLE_S,
+    key: bytes | None = None,
+    sources: dict[str, TopicSource] | None = None,
 ) -> None:
-    bus = Ros1Bus(name)
+    bus = Ros1Bus(name, key, OBSERVER)
     rospy = bus.rospy
     from diagnostic_msgs.msg import DiagnosticArray
 
-    host = ObserverHost(specs)
+    host = ObserverHost(specs, sources=sources)
     host.source = bus.name
+    trust = bus.trust
+    refuse = trust.refuse if trust is not None else host.refuse
     agent = start_agent(bus, specs, machine, launch)
     bank = host.bank
     readers = Readers(bank.topic_fields())
+    connections = Connections(host.check, refuse, node_uri)
+    impls: dict[str, Any] = {}
 
     def on_message(msg: Any, topic: str) -> None:
+        if not connections.admits(topic, getattr(msg, "_connection_header", None), impls[topic]):
+            return
         values, stamp = readers.read(topic, msg._buff, lambda: connection_type(msg))
         host.message(topic, values, stamp)
 
     for topic in sorted(bank.topic_fields()):
-        rospy.Subscriber(topic, rospy.AnyMsg, on_message, callback_args=topic, queue_size=50)
+        sub = rospy.Subscriber(topic, rospy.AnyMsg, on_message, callback_args=topic, queue_size=50)
+        impls[topic] = sub.impl
     if bank.devices:
-        rospy.Subscriber(
-            DIAGNOSTICS_TOPIC, DiagnosticArray, lambda a: host.device_rows(rows_from_array(a))
-        )
+
+        def on_diagnostics(array: Any) -> None:
+            header = getattr(array, "_connection_header", None)
+            if not connections.admits(DIAGNOSTICS_TOPIC, header, diagnostics.impl, True):
+                return
+            source = str(header.get("callerid", "")) if isinstance(header, dict) else None
+            host.device_rows(rows_from_array(array), source)
+
+        diagnostics = rospy.Subscriber(DIAGNOSTICS_TOPIC, DiagnosticArray, on_diagnostics)
     if bank.needs_board:
-        rospy.Subscriber(
-            BOARD_TOPIC, DiagnosticArray, lambda a: host.channel_rows(rows_from_array(a))
+        bus.on_rows(
+            BOARD_TOPIC,
+            host.channel_rows,
+            10,
+            gate=trust.gate(BOARD_TOPIC) if trust is not None else None,
         )
     probe = ProcessProbe(bank.nodes, node_liveness, bank.properties, settle_s=settle_s)
     run_observer_node(

@@ -29,6 +29,7 @@ from rac.ros1.common import (
     proxy,
 )
 from rac.runtime.nodes import RepairJob, run_repair_node
+from rac.runtime.trust import BOARD_SWITCH, REPAIRER
 
 
 class MasterWatch:
@@ -55,8 +56,11 @@ class MasterWatch:
 
 
 def run_repairer(job: RepairJob, name: str = "racc_repairer") -> None:
-    bus = Ros1Bus(name)
+    bus = Ros1Bus(name, job.key, REPAIRER)
     actuator = Ros1Actuator(bus.rospy, job.launch_file)
+    trust = bus.trust
+    if trust is not None:
+        actuator.sealed = lambda device, value: trust.seal_kv(BOARD_SWITCH, device, value)
     # The nodes racc started are left running: they belong to the robot.
-    routed = routed_actuator(bus.rospy, job, actuator)
+    routed = routed_actuator(bus, job, actuator)
     run_repair_node(bus, routed, job, after_tick=actuator.reap, middleware=MasterWatch())

@@ -54,7 +54,13 @@ def _process(node: Any) -> NodeProcess:
     args.append(f"__name:={node.name}")
     if ns != "/":
         args.append(f"__ns:={ns}")
-    return NodeProcess(full, (*start, *args), tuple((k, str(v)) for k, v in node.env_args))
+    return NodeProcess(
+        full,
+        (*start, *args),
+        tuple((k, str(v)) for k, v in node.env_args),
+        respawn=bool(node.respawn),
+        respawn_delay=float(node.respawn_delay or 0.0),
+    )
 
 
 def _executable(package: str, node_type: str) -> str:

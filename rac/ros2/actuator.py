@@ -8,6 +8,7 @@ import os
 import shlex
 import signal
 import threading
+from collections.abc import Callable
 
 from rac.errors import Diagnostic, RacError
 from rac.ros2.common import Session, graph_nodes, reliable
@@ -29,6 +30,8 @@ class Ros2Actuator:
         self.detached = Detached()
         self.KeyValue = KeyValue
         self.switches = session.node.create_publisher(KeyValue, "/board_switch", reliable(10))
+        # A switch request's value as it goes out: sealed by the repairer (rac.runtime.trust).
+        self.sealed: Callable[[str, str], str] = lambda device, value: value
 
     def _command(self, node: str) -> tuple[list[str], dict[str, str]]:
         entry = self.entries.get(node.strip("/"))
@@ -94,7 +97,8 @@ class Ros2Actuator:
                     )
                 ]
             )
-        self.switches.publish(self.KeyValue(key=device, value="on" if on else "off"))
+        value = self.sealed(device, "on" if on else "off")
+        self.switches.publish(self.KeyValue(key=device, value=value))
 
     def reap(self) -> None:
         self.detached.reap()

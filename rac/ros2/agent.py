@@ -14,6 +14,7 @@ from rac.ros2.common import Session, reliable
 from rac.runtime.nodes import RepairJob
 from rac.runtime.repairer import Actuator
 from rac.runtime.routing import Agent, RoutedActuator, agent_started, agent_topic, no_agent
+from rac.runtime.trust import AGENT
 
 CONNECT_S = 3.0  # for the agents' subscriptions to be matched before the first request
 
@@ -36,7 +37,9 @@ def routed_actuator(session: Session, job: RepairJob, local: Any) -> Actuator:
         pub = pubs.get(machine)
         if pub is None or pub.get_subscription_count() == 0:
             raise no_agent(machine, name)
-        pub.publish(KeyValue(key=action, value=name))
+        trust = session.trust
+        value = trust.seal_kv(AGENT + machine, action, name) if trust is not None else name
+        pub.publish(KeyValue(key=action, value=value))
 
     return RoutedActuator(local, job.placements, job.machine, ask)
 
@@ -53,9 +56,17 @@ def start_agent(
     local = Ros2Actuator(session, launch, None) if launch else None
     agent = Agent(machine, node_placements(specs), local)
 
-    def receive(msg: Any) -> None:
-        agent.request(msg.key, msg.value)
+    topic, trust = agent_topic(machine), session.trust
+    gate = trust.gate(AGENT + machine) if trust is not None else None
 
-    session.node.create_subscription(KeyValue, agent_topic(machine), receive, reliable(20))
+    def receive(msg: Any) -> None:
+        if trust is None or gate is None:
+            agent.request(msg.key, msg.value)
+            return
+        admitted = trust.check_kv(topic, gate, msg.key, msg.value)
+        if admitted is not None:
+            agent.request(msg.key, admitted[0])
+
+    session.node.create_subscription(KeyValue, topic, receive, reliable(20))
     session.log(0, agent_started(machine, launch))
     return agent

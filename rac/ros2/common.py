@@ -19,6 +19,7 @@ from rac.ros2.args import ROS_ARGS
 from rac.runtime.placement import Found, prove_by_cmdline
 from rac.runtime.procs import innermost, node_processes, process_table
 from rac.runtime.status import Row, rows_from_array
+from rac.runtime.trust import Gate, Trust
 
 HINT = (
     "source a ROS 2 installation (Humble or Jazzy: 'source /opt/ros/jazzy/setup.bash'), or "
@@ -76,7 +77,14 @@ def require_rclpy() -> Any:
 class Session:
     """One rclpy node spun by an executor thread; the caller's loop runs while ``ok``."""
 
-    def __init__(self, name: str, ros_args: Sequence[str] | None = None) -> None:
+    def __init__(
+        self,
+        name: str,
+        ros_args: Sequence[str] | None = None,
+        key: bytes | None = None,
+        role: str = "",
+        seal_as: str = "",
+    ) -> None:
         ros_args = ROS_ARGS if ros_args is None else ros_args
         rclpy = require_rclpy()
         from rclpy.executors import SingleThreadedExecutor
@@ -87,6 +95,8 @@ class Session:
         self.node = rclpy.create_node(name)
         self.executor = SingleThreadedExecutor()
         self.executor.add_node(self.node)
+        sender = seal_as or self.name
+        self._trust = Trust(key, role, sender, self.log) if key is not None else None
         self._thread = threading.Thread(target=self._spin, daemon=True)
         self._thread.start()
 
@@ -106,36 +116,79 @@ class Session:
     def name(self) -> str:
         return str(self.node.get_fully_qualified_name()).lstrip("/")
 
+    @property
+    def trust(self) -> Trust | None:
+        return self._trust
+
     def rows_publisher(
-        self, topic: str, depth: int, latched: bool = False
+        self, topic: str, depth: int, latched: bool = False, purpose: str = ""
     ) -> Callable[[Sequence[Row]], None]:
         """:class:`rac.runtime.nodes.Bus`'s publisher of status arrays, reliable."""
         from diagnostic_msgs.msg import DiagnosticArray
 
         pub = self.node.create_publisher(DiagnosticArray, topic, reliable(depth, latched))
-        return lambda rows: pub.publish(to_array(self, rows))
+        trust = self._trust if purpose else None
+
+        def publish(rows: Sequence[Row]) -> None:
+            seal = trust.seal_rows(purpose, rows) if trust is not None else ""
+            pub.publish(to_array(self, rows, seal))
+
+        return publish
 
     def on_rows(
-        self, topic: str, callback: Callable[[list[Row]], None], depth: int, latched: bool = False
+        self,
+        topic: str,
+        callback: Callable[[list[Row]], None],
+        depth: int,
+        latched: bool = False,
+        gate: Gate | None = None,
     ) -> None:
         """A reliable subscription; ``latched`` (transient local) also receives the array
         a latched publisher kept."""
         from diagnostic_msgs.msg import DiagnosticArray
 
+        trust = self._trust if gate is not None else None
+
         def receive(array: Any) -> None:
-            callback(rows_from_array(array))
+            rows = rows_from_array(array)
+            sealed = array.header.frame_id
+            if (
+                trust is not None
+                and gate is not None
+                and not trust.check_rows(topic, gate, sealed, rows)
+            ):
+                return
+            callback(rows)
 
         self.node.create_subscription(DiagnosticArray, topic, receive, reliable(depth, latched))
 
-    def on_text(self, topic: str, callback: Callable[[str], None], depth: int) -> None:
+    def text_publisher(self, topic: str, depth: int) -> _Texts:
+        from std_msgs.msg import String
+
+        return _Texts(self.node.create_publisher(String, topic, reliable(depth)), String)
+
+    def on_text(
+        self,
+        topic: str,
+        callback: Callable[[str, str], None],
+        depth: int,
+        gate: Gate | None = None,
+    ) -> None:
         """``~name`` is the node's private topic, ``~/name`` in ROS 2's spelling."""
         from std_msgs.msg import String
 
         if topic.startswith("~") and not topic.startswith("~/"):
             topic = "~/" + topic[1:]
+        trust = self._trust if gate is not None else None
+        shown = str(self.node.resolve_topic_name(topic))  # ~/confirm: /racc_repairer/confirm
 
         def receive(msg: Any) -> None:
-            callback(msg.data)
+            if trust is None or gate is None:
+                callback(msg.data, "")
+                return
+            admitted = trust.check_text(shown, gate, msg.data)
+            if admitted is not None:
+                callback(*admitted)
 
         self.node.create_subscription(String, topic, receive, reliable(depth))
 
@@ -167,6 +220,17 @@ class Session:
         except Exception:
             if self.context.ok():
                 raise
+
+
+class _Texts:
+    def __init__(self, pub: Any, cls: Any) -> None:
+        self._pub, self._cls = pub, cls
+
+    def __call__(self, text: str) -> None:
+        self._pub.publish(self._cls(data=text))
+
+    def listeners(self) -> int:
+        return int(self._pub.get_subscription_count())
 
 
 def reliable(depth: int = 10, latched: bool = False) -> Any:
@@ -202,11 +266,13 @@ def message_class(ros_type: str) -> Any | None:
 # -- diagnostic statuses ---------------------------------------------------------------------
 
 
-def to_array(session: Session, rows: Iterable[Row]) -> Any:
+def to_array(session: Session, rows: Iterable[Row], frame_id: str = "") -> Any:
+    """A ``DiagnosticArray`` of the rows; ``frame_id`` carries a racc seal."""
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
     array = DiagnosticArray()
     array.header.stamp = session.node.get_clock().now().to_msg()
+    array.header.frame_id = frame_id
     array.status = [
         DiagnosticStatus(
             level=bytes([r.level]),

@@ -12,6 +12,7 @@ import os
 import subprocess
 from typing import Any
 
+from rac.load.secret import load_secret
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC
 from rac.ros2.args import ROS_ARGS
 from rac.ros2.common import (
@@ -65,12 +66,13 @@ def run_demo_node(demo: DemoNode, body: subprocess.Popen[str] | None = None) -> 
         if status_pub is not None:
             status_pub.publish(to_array(session, rows))
 
-    runner = DemoRunner(demo, body, publish, status, session.log)
+    key = load_secret() if demo.devices else None  # the board client seals what it sees
+    runner = DemoRunner(demo, body, publish, status, session.log, key)
     if runner.channels:
         node.create_subscription(
             DiagnosticArray,
             BOARD_TOPIC,
-            lambda a: runner.board_rows(rows_from_array(a)),
+            lambda a: runner.board_rows(rows_from_array(a), a.header.frame_id),
             sensor_qos(5),
         )
     shown = ", ".join(t.name for t in demo.topics) or "nothing"

@@ -11,6 +11,7 @@ from collections.abc import Callable
 from rac.diagnosis import Theory
 from rac.ros2.common import Session
 from rac.runtime.nodes import run_engine_node
+from rac.runtime.trust import ENGINE
 
 
 def run_engine(
@@ -21,9 +22,21 @@ def run_engine(
     rate_hz: float = 1.0,
     max_card: int | None = None,
     name: str = "racc_engine",
+    key: bytes | None = None,
+    hosts: tuple[str, ...] = (),
+    reload_dir: str | None = None,
 ) -> None:
-    session = Session(name)
+    session = Session(name, key=key, role=ENGINE)
     try:
-        run_engine_node(session, path, load, robot, rate_hz=rate_hz, max_card=max_card)
+        run_engine_node(
+            session,
+            path,
+            load,
+            robot,
+            rate_hz=rate_hz,
+            max_card=max_card,
+            hosts=hosts,
+            reload_dir=reload_dir,
+        )
     finally:
         session.close()

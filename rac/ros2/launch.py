@@ -42,6 +42,8 @@ class LaunchNode:
     params: tuple[tuple[str, str], ...]
     remaps: tuple[tuple[str, str], ...]
     env: tuple[tuple[str, str], ...]
+    respawn: bool = False  # started again when it ends (racc run, as ros2 launch does)
+    respawn_delay: float = 0.0
 
     @property
     def key(self) -> str:
@@ -134,7 +136,21 @@ def _node(e: ET.Element, sub: object, path: Path) -> LaunchNode:
         params=tuple((a["name"], a.get("value", "")) for t, a in children if t == "param"),
         remaps=tuple((a["from"], a["to"]) for t, a in children if t == "remap"),
         env=tuple((a["name"], a["value"]) for t, a in children if t == "env"),
+        respawn=sub(e.get("respawn")).strip().lower() == "true",
+        respawn_delay=_seconds(sub(e.get("respawn_delay")), path),
     )
+
+
+def _seconds(text: str, path: Path) -> float:
+    if not text.strip():
+        return 0.0
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not value >= 0:
+        raise _bad(path, f"respawn_delay must be a number of seconds >= 0, not '{text}'")
+    return value
 
 
 def package_prefix(package: str) -> Path:

@@ -2,7 +2,17 @@
 rclpy process.
 
 Topics are subscribed as they appear in the graph (raw CDR, best effort, with the type the
-graph names; only the fields an observer reads are deserialized, with rosbags).  NObs:
+model declares, else the one the graph names; only the fields an observer reads are
+deserialized, with rosbags).
+
+**Whose messages count** (:mod:`rac.runtime.sources`).  rclpy does not say which publisher
+sent a message, so the graph does: once a second the host reads each observed topic's
+publishers.  One of another type never reaches the host (DDS matches a subscription only
+with publishers of its type): it is reported.  One of the declared type that the model
+does not name cannot be told apart from the model's own: the topic's observers are
+suspended (their atoms unknown, never a fault) while it publishes, and start afresh when
+it has gone; it is reported.  Within an SROS2 enclave whose policy lets only the model's
+nodes publish, neither happens (docs/security.md).  NObs:
 the graph (``get_node_names_and_namespaces``) and the node's process, found by its
 ``__node:=`` argument (:class:`rac.ros2.common.PidResolver`); PObs: cpu and memory of that
 process.  The sample loop, the agent's turn and the publication rule
@@ -14,16 +24,21 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec
+from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec, TopicSource
 from rac.ros2.agent import start_agent
 from rac.ros2.common import PidResolver, Session, graph_nodes, message_class, sensor_qos
 from rac.runtime.host import ObserverHost
 from rac.runtime.nodes import run_observer_node
 from rac.runtime.procs import DEFAULT_SETTLE_S, ProcessProbe
+from rac.runtime.routing import RACC_PREFIX
+from rac.runtime.sources import node_name, type_name
 from rac.runtime.status import rows_from_array
+from rac.runtime.trust import OBSERVER
 from rac.runtime.values import Readers
 
 DISCOVER_S = 0.5
+AUDIT_S = 1.0  # how often the graph's publishers of the observed topics are checked
+UNNAMED = "_NODE_NAME_UNKNOWN_"  # the graph's name of an endpoint whose node is not known yet
 
 
 def run_observe(
@@ -35,23 +50,42 @@ def run_observe(
     machine: str | None = None,
     launch: str | None = None,
     settle_s: float = DEFAULT_SETTLE_S,
+    key: bytes | None = None,
+    sources: dict[str, TopicSource] | None = None,
 ) -> None:
-    session = Session(name)
+    session = Session(name, key=key, role=OBSERVER)
     from diagnostic_msgs.msg import DiagnosticArray
 
     node = session.node
-    host = ObserverHost(specs)
+    host = ObserverHost(specs, sources=sources)
     host.source = session.name
     agent = start_agent(session, specs, machine, launch)
     bank = host.bank
     readers = Readers(bank.topic_fields(), ros_version=2)
     wanted = frozenset(bank.topic_fields())
     subs: dict[str, Any] = {}
+    kinds: dict[str, str] = {}  # topic -> the type it is subscribed with
     unknown: set[str] = set()
-    next_discover = 0.0
+    next_discover = next_audit = 0.0
+
+    check = host.check
+    trust = session.trust
+    refuse = trust.refuse if trust is not None else host.refuse
+    if trust is not None:
+        host.refuse = trust.refuse
 
     def subscribe(topic: str, ros_type: str) -> None:
-        cls = message_class(ros_type)
+        declared = check.declared_type(topic)
+        cls = message_class(declared) if declared else None
+        if cls is None:
+            if declared and declared not in unknown:
+                unknown.add(declared)
+                session.log(
+                    1,
+                    f"racc observe: {topic}: the declared type {declared} is not importable "
+                    f"here; subscribed as {ros_type}, as the graph names it",
+                )
+            cls = message_class(ros_type)
         if cls is None:
             if ros_type not in unknown:
                 unknown.add(ros_type)
@@ -63,6 +97,7 @@ def run_observe(
             host.message(topic, values, stamp)
 
         subs[topic] = node.create_subscription(cls, topic, on_message, sensor_qos(), raw=True)
+        kinds[topic] = ros_type if not declared or message_class(declared) is None else declared
 
     def discover(now: float) -> None:
         nonlocal next_discover
@@ -71,16 +106,95 @@ def run_observe(
         next_discover = now + DISCOVER_S
         for topic, types in node.get_topic_names_and_types():
             if topic in wanted and topic not in subs and types:
-                subscribe(topic, types[0])
+                declared = check.declared_type(topic)
+                # The declared type's publishers, whatever else publishes on the name.
+                matching = [t for t in types if declared and type_name(t) == declared]
+                subscribe(topic, (matching or types)[0])
 
-    for topic, feed in (
-        (DIAGNOSTICS_TOPIC, host.device_rows if bank.devices else None),
-        (BOARD_TOPIC, host.channel_rows if bank.needs_board else None),
-    ):
-        if feed is not None:
-            node.create_subscription(
-                DiagnosticArray, topic, lambda a, f=feed: f(rows_from_array(a)), sensor_qos()
-            )
+    unnamed: set[tuple[str, str]] = set()  # (topic, gid) of endpoints without a name yet
+
+    def publishers(topic: str) -> list[tuple[str, str, bool, bool]]:
+        """(node, type, named, reported) of each publisher of ``topic`` in the graph.
+        Discovery tells an endpoint before its node's name: such an endpoint counts as a
+        stranger (its messages cannot be told apart) but is reported only once it has
+        stayed unnamed over two audits."""
+        out = []
+        for info in node.get_publishers_info_by_topic(topic):
+            named = UNNAMED not in info.node_name
+            name = f"{info.node_namespace.rstrip('/')}/{info.node_name}".lstrip("/")
+            key = (topic, str(list(info.endpoint_gid)))
+            reported = named or key in unnamed
+            if not named:
+                unnamed.add(key)
+                name = "an endpoint whose node is not named"
+            out.append((name, info.topic_type, named, reported))
+        return out
+
+    def audit(now: float) -> None:
+        """The graph's publishers of each observed topic against the model's."""
+        nonlocal next_audit
+        if now < next_audit or not check.known:
+            return
+        next_audit = now + AUDIT_S
+        for topic in sorted(subs):
+            contested = []
+            declared = check.declared_type(topic)
+            checks_type = declared is not None and kinds.get(topic) == declared
+            for publisher, kind, named, reported in publishers(topic):
+                why = check.stranger(topic, publisher) if named else "not named in the graph"
+                if checks_type and not why:
+                    why = check.wrong_type(topic, kind)
+                if why is None:
+                    continue
+                if reported:
+                    refuse(publisher, topic, why)
+                if type_name(kind) == type_name(kinds.get(topic, "")):
+                    contested.append(f"{publisher} publishes it too")
+            if contested:
+                host.suspend_topic(topic, "; ".join(contested))
+            else:
+                host.resume_topic(topic)
+        if bank.devices:
+            # Whose status a /diagnostics message is cannot be told here: while a node that
+            # is neither the model's nor racc's publishes there, the device observers are
+            # suspended (docs/security.md).
+            known = {node_name(n) for n in bank.nodes}
+            strangers = []
+            for publisher, _, named, reported in publishers(DIAGNOSTICS_TOPIC):
+                if named and (publisher in known or publisher.startswith(RACC_PREFIX)):
+                    continue
+                strangers.append(publisher)
+                if reported:
+                    refuse(
+                        publisher,
+                        DIAGNOSTICS_TOPIC,
+                        "not a node of the model: whose status a message is cannot be told "
+                        "on ROS 2, so the device observers wait",
+                    )
+            if strangers:
+                host.suspend_topic(DIAGNOSTICS_TOPIC, f"{', '.join(strangers)} publish there too")
+            else:
+                host.resume_topic(DIAGNOSTICS_TOPIC)
+
+    def each_tick(now: float) -> None:
+        discover(now)
+        audit(now)
+
+    if bank.devices:
+        # Who published a status is not told here: every status counts (docs/security.md).
+        node.create_subscription(
+            DiagnosticArray,
+            DIAGNOSTICS_TOPIC,
+            lambda a: host.device_rows(rows_from_array(a)),
+            sensor_qos(),
+        )
+    if bank.needs_board:
+        session.on_rows(
+            BOARD_TOPIC,
+            host.channel_rows,
+            10,
+            gate=trust.gate(BOARD_TOPIC) if trust is not None else None,
+        )
     resolver = PidResolver(lambda: graph_nodes(session))
     probe = ProcessProbe(bank.nodes, resolver, bank.properties, recheck_s=1.0, settle_s=settle_s)
     try:
@@ -93,7 +207,7 @@ def run_observe(
             republish_s=republish_s,
             agent=agent,
             machine=machine,
-            each_tick=discover,
+            each_tick=each_tick,
         )
     finally:
         session.close()

@@ -20,11 +20,15 @@ from rac.ros2.actuator import Ros2Actuator
 from rac.ros2.agent import routed_actuator
 from rac.ros2.common import Session
 from rac.runtime.nodes import RepairJob, run_repair_node
+from rac.runtime.trust import BOARD_SWITCH, REPAIRER
 
 
 def run_repairer(job: RepairJob, restart: str | None = None, name: str = "racc_repairer") -> None:
-    session = Session(name)
+    session = Session(name, key=job.key, role=REPAIRER)
     actuator = Ros2Actuator(session, job.launch_file, restart)
+    trust = session.trust
+    if trust is not None:
+        actuator.sealed = lambda device, value: trust.seal_kv(BOARD_SWITCH, device, value)
     try:  # the nodes racc started are left running: they belong to the robot
         routed = routed_actuator(session, job, actuator)
         run_repair_node(session, routed, job, after_tick=actuator.reap)

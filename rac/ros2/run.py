@@ -21,7 +21,13 @@ def load_processes(path: Path, arguments: Mapping[str, str]) -> list[NodeProcess
 def _process(node: LaunchNode) -> NodeProcess:
     start = racc_command(2, node.executable) if node.package == "racc" else None
     command = command_line(node) if start is None else [*start, *node_arguments(node)]
-    return NodeProcess(node.key or node.executable, tuple(command), node.env)
+    return NodeProcess(
+        node.key or node.executable,
+        tuple(command),
+        node.env,
+        respawn=node.respawn,
+        respawn_delay=node.respawn_delay,
+    )
 
 
 def restart_problems(robot_launch: str) -> list[str]:

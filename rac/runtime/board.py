@@ -43,14 +43,23 @@ def run_board_link(
     log: Log,
     running: Callable[[], bool],
     hz: int = 10,
+    every_second: Callable[[], None] | None = None,
 ) -> None:
-    """Until ``running()`` is false: measure, publish, switch; reconnect when lost."""
+    """Until ``running()`` is false: measure, publish, switch; reconnect when lost;
+    ``every_second`` (the node's status) is called about once a second meanwhile."""
     devices = dict(channels.devices)
+    due = [0.0]
+
+    def tick() -> None:
+        if every_second is not None and time.monotonic() >= due[0]:
+            due[0] = time.monotonic() + 1.0
+            every_second()
 
     async def serve() -> None:
         async with BoardClient(address, ClientSettings(hz=hz)) as board:
             log(OK, f"racc board client: connected to {address}, {board.channel_count} channels")
             while running():
+                tick()
                 msr = await board.measure()
                 publish(channel_rows([(r.on, r.current, r.voltage) for r in msr.channels], devices))
                 for device, on in requests.take():
@@ -65,6 +74,7 @@ def run_board_link(
                     log(OK, f"t={time.time():.3f} board SWT channel {channel} ({device}) {state}")
 
     while running():
+        tick()
         try:
             asyncio.run(serve())
         except RacError as err:

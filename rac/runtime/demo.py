@@ -41,7 +41,9 @@ import numpy as np
 
 from rac.errors import Diagnostic, RacError
 from rac.ir import Model, Node, Topic
+from rac.passes.observers import BOARD_TOPIC
 from rac.runtime.status import Row, row_channel
+from rac.runtime.trust import Gate, Refused, rows_body
 from rac.synth.faults import FAULT_KINDS, FAULT_SPEC, FREQ_FACTOR, Fault, parse_fault
 from rac.synth.recording import Plan, PlannedTopic, SynthOptions, _assignments, build_message
 from rac.synth.sensors import content, role_of
@@ -369,9 +371,14 @@ class DemoRunner:
         publish: Callable[[LiveTopic, float], None],
         status: Callable[[list[Row]], None],
         log: Callable[[int, str], None],
+        key: bytes | None = None,
     ) -> None:
         self.demo, self.body = demo, body
         self.publish, self.status, self.log = publish, status, log
+        # The simulated driver believes only the board client's sealed measurements: a
+        # stranger's "channel off" on the graph must not switch the simulated device off.
+        self.gate = Gate(key, BOARD_TOPIC, latched=True) if key is not None else None
+        self._refused = False
         self.lost = threading.Event()  # a device of this driver lost power: until restarted
         self.channels = {channel for _, channel in demo.devices}
         self._told: tuple[float, int] = (0.0, 0)
@@ -380,7 +387,13 @@ class DemoRunner:
         heapq.heapify(self._queue)
         self._next_status = now
 
-    def board_rows(self, rows: Iterable[Row]) -> None:
+    def board_rows(self, rows: Iterable[Row], seal: str = "") -> None:
+        rows = list(rows)
+        if self.gate is not None and isinstance(self.gate.admit(seal, rows_body(rows)), Refused):
+            if not self._refused:
+                self.log(1, f"t={time.time():.3f} ignored /board_measurements without racc's seal")
+                self._refused = True
+            return
         for row in rows:
             state = row_channel(row, 0.0)
             if state is not None and state.channel in self.channels and not state.on:

@@ -34,6 +34,9 @@ from rac.runtime.status import (
 )
 
 MIN_GAP_S = 0.2  # between diagnoses triggered by changed observations
+# /diagnosis is published at least this often, whatever the rate: it is the engine's
+# heartbeat, by which the repairer and the observer hosts know the diagnosis is live.
+HEARTBEAT_S = 1.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -105,6 +108,19 @@ def diagnosis_line(t: float, result: DiagnosisResult) -> str:
     return f"t={t:.3f} diagnosis {shown}"
 
 
+def reload_refusal(target: str, folder: str | None) -> str | None:
+    """Why a model at ``target`` may not be loaded on request (None: it may): only a
+    regular file inside ``folder``, symbolic links resolved, never one outside it."""
+    if folder is None:
+        return "reloading another model on request is off (--reload-dir none)"
+    real, root = os.path.realpath(target), os.path.realpath(folder)
+    if os.path.commonpath([real, root]) != root:
+        return f"{target} is outside the model directory {root} fixed at start"
+    if not os.path.isfile(real):
+        return f"{target} is not a file"
+    return None
+
+
 def _stamp(path: str) -> tuple[float, int] | None:
     try:
         st = os.stat(path)
@@ -131,11 +147,15 @@ class EngineLoop:
         rate_hz: float = 1.0,
         max_card: int | None = None,
         host_lost_s: float = HOST_LOST_S,
+        reload_dir: str | None = None,
     ) -> None:
         self.load, self.log = load, log
         self.diagnoser = Diagnoser(load(path), robot, node, max_card)
-        self.period = 1.0 / rate_hz
+        self.period = min(1.0 / rate_hz, HEARTBEAT_S)
         self.path, self.stamp, self.request = path, _stamp(path), ""
+        # Models are reloaded only from here (None: never on request): a message on the
+        # reload topic cannot make the engine read a model from anywhere else.
+        self.reload_dir = reload_dir
         self.hosts = HostWatch(host_lost_s)
         self._lock = threading.Lock()
         self._last = float("-inf")
@@ -171,9 +191,17 @@ class EngineLoop:
             silent = now - self.hosts.heard[host]
             self.log(ERROR, lost_line(now, host, atoms, silent))
 
-    def request_reload(self, target: str) -> None:
+    def request_reload(self, target: str) -> str | None:
+        """Reload the model from ``target`` (empty: the same file) at the next step; the
+        reason it is refused, if it is (the engine's model directory is fixed at start)."""
+        target = target.strip()
+        if target and os.path.realpath(target) != os.path.realpath(self.path):
+            why = reload_refusal(target, self.reload_dir)
+            if why is not None:
+                return why
         with self._lock:
             self.request = target or self.path
+        return None
 
     def step(self, now: float) -> Tick | None:
         with self._lock:

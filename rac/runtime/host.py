@@ -29,10 +29,11 @@ from dataclasses import dataclass, replace
 
 from rac.logic import Atom
 from rac.observe import ChannelState, DeviceStatus, Event, Message, ObserverBank, Verdict
-from rac.observe.dobs import violations_first
-from rac.passes.observers import ObserverSpec
+from rac.observe.dobs import names_device, violations_first
+from rac.passes.observers import ObserverSpec, TopicSource
 from rac.runtime.placement import PlacementView
 from rac.runtime.procs import ProcessProbe
+from rac.runtime.sources import SourceCheck, device_reporters, node_name
 from rac.runtime.status import Row, literal_row, row_channel, unknown_row
 
 
@@ -40,10 +41,18 @@ class ObserverHost:
     """Thread-safe: a transport may feed it from several callback threads."""
 
     def __init__(
-        self, specs: Iterable[ObserverSpec], clock: Callable[[], float] | None = None
+        self,
+        specs: Iterable[ObserverSpec],
+        clock: Callable[[], float] | None = None,
+        sources: Mapping[str, TopicSource] | None = None,
     ) -> None:
         self.specs = tuple(specs)
         self.bank = ObserverBank(self.specs)
+        # Whose messages count (rac.runtime.sources); what does not is handed to
+        # ``refuse(source, topic, reason)``, which the transport points at its Trust.
+        self.check = SourceCheck(sources)
+        self.reporters = device_reporters(self.specs)
+        self.refuse: Callable[[str, str, str], None] = lambda source, topic, reason: None
         # Seconds since the host started: small numbers keep the observers' running sums
         # (regressions over time) accurate, which epoch seconds (~1.8e9) would not.
         start = time.monotonic()
@@ -136,11 +145,52 @@ class ObserverHost:
             for e in events:
                 self._feed(e)
 
-    def device_rows(self, rows: Iterable[Row]) -> None:
-        """A ``/diagnostics`` array (DObs)."""
+    def device_rows(self, rows: Iterable[Row], source: str | None = None) -> None:
+        """A ``/diagnostics`` array (DObs) published by node ``source`` (None: unknown, as
+        on ROS 2): a status of a device counts only from the nodes the model has report
+        it; another node's status of it is refused."""
         t = self.clock()
+        statuses = [DeviceStatus(t, r.name, r.hardware_id, r.level) for r in rows]
+        if source is not None and self.reporters:
+            statuses = [s for s in statuses if self._reported_by(s, source)]
         # One check per array at its worst level (DObs): violations first.
-        self.feed(violations_first(DeviceStatus(t, r.name, r.hardware_id, r.level) for r in rows))
+        self.feed(violations_first(statuses))
+
+    def _reported_by(self, status: DeviceStatus, source: str) -> bool:
+        sender = node_name(source)
+        for device, reporters in self.reporters.items():
+            if names_device(status, device) and reporters and sender not in reporters:
+                shown = ", ".join(sorted(reporters))
+                self.refuse(
+                    source,
+                    "/diagnostics",
+                    f"a status of device {device}, which the model has {shown} report",
+                )
+                return False
+        return True
+
+    def suspend_topic(self, topic: str, why: str) -> None:
+        """``topic``'s messages cannot be told from a stranger's: its observers get none,
+        and what they report is unknown until :meth:`resume_topic`."""
+        with self._lock:
+            if self.bank.suspended(topic):
+                return
+            atoms = self.bank.suspend(topic)
+            self.notes.append(
+                f"t={self.wall(self._now()):.3f} observers of {topic} suspended ({why}): "
+                f"{len(atoms)} atoms unknown"
+            )
+        self.withdraw(atoms)
+
+    def resume_topic(self, topic: str) -> None:
+        with self._lock:
+            if not self.bank.suspended(topic):
+                return
+            self.bank.resume(topic)
+            self.notes.append(
+                f"t={self.wall(self._now()):.3f} observers of {topic} resumed, afresh: only "
+                "the model's publishers publish it again"
+            )
 
     def channel_rows(self, rows: Iterable[Row]) -> None:
         """A ``/board_measurements`` array (HObs)."""

@@ -26,6 +26,15 @@ from typing import IO
 from rac.errors import Diagnostic, RacError
 
 STOP_GRACE_S = 10.0  # what each node gets to end on SIGINT before SIGTERM
+# A node that respawns is given up on (and racc run stops) when it ended this many times
+# within the window, as systemd's StartLimitBurst/StartLimitIntervalSec: a crash loop does
+# not watch the robot, it only hides that nothing does.
+RESPAWN_BURST = 5
+RESPAWN_WINDOW_S = 60.0
+MIN_RESPAWN_DELAY_S = 1.0
+# A racc node's exit codes that say its input is wrong (1) or its command line (2): a new
+# start would end the same way, so racc run stops instead of respawning it.
+INPUT_WRONG = (1, 2)
 # racc's own runtime nodes: launch file executable -> racc command
 RACC_EXECUTABLES = {
     "observe": "observe",
@@ -58,11 +67,15 @@ class LaunchArg:
 
 @dataclass(frozen=True, slots=True)
 class NodeProcess:
-    """One node to run: its name (for the output prefix) and its command line."""
+    """One node to run: its name (for the output prefix) and its command line; ``respawn``:
+    started again when it ends, after ``respawn_delay`` s (roslaunch's and ros2 launch's
+    attributes of the same names)."""
 
     name: str
     command: tuple[str, ...]
     env: tuple[tuple[str, str], ...] = ()
+    respawn: bool = False
+    respawn_delay: float = 0.0
 
 
 def racc_command(ros: int, executable: str) -> list[str] | None:
@@ -153,7 +166,13 @@ def describe_arguments(declared: Sequence[LaunchArg]) -> list[str]:
 
 
 class Supervisor:
-    """Runs node processes until asked to stop or until one fails; then stops them all."""
+    """Runs node processes until asked to stop or until one fails; then stops them all.
+
+    A node that ends by itself is started again when it respawns (``respawn``), after its
+    delay (at least :data:`MIN_RESPAWN_DELAY_S`), and its loss and return are said; unless
+    it ended because its input is wrong (:data:`INPUT_WRONG`) or ended
+    :data:`RESPAWN_BURST` times within :data:`RESPAWN_WINDOW_S`: then every node is stopped
+    and racc run exits 1.  A node that does not respawn stops the others when it ends."""
 
     def __init__(self, out: IO[str] | None = None, quiet: bool = False) -> None:
         self.out = out or sys.stdout
@@ -162,13 +181,21 @@ class Supervisor:
         self._pumps: list[threading.Thread] = []
         self._lock = threading.Lock()
         self.stop_requested = threading.Event()
+        self._env: dict[str, Mapping[str, str]] = {}
+        self._ended: dict[str, list[float]] = {}  # node -> when it ended lately
+        self._due: dict[int, float] = {}  # index in procs -> when it starts again
 
     def say(self, text: str) -> None:
         with self._lock:
             print(f"t={time.time():.3f} racc run: {text}", file=self.out, flush=True)
 
     def start(self, node: NodeProcess, base_env: Mapping[str, str]) -> None:
-        env = {**base_env, **dict(node.env), "PYTHONUNBUFFERED": "1"}
+        self._env[node.name] = base_env
+        self.procs.append((node, self._spawn(node)))
+        self.say(f"started {node.name} (pid {self.procs[-1][1].pid})")
+
+    def _spawn(self, node: NodeProcess) -> subprocess.Popen[bytes]:
+        env = {**self._env[node.name], **dict(node.env), "PYTHONUNBUFFERED": "1"}
         proc = subprocess.Popen(
             list(node.command),
             env=env,
@@ -178,12 +205,11 @@ class Supervisor:
             # Its own session: Ctrl-C reaches racc run alone, which stops each node once.
             start_new_session=True,
         )
-        self.procs.append((node, proc))
-        self.say(f"started {node.name} (pid {proc.pid})")
         if proc.stdout is not None:
             pump = threading.Thread(target=self._pump, args=(node.name, proc.stdout), daemon=True)
             pump.start()
             self._pumps.append(pump)
+        return proc
 
     def _pump(self, name: str, stream: IO[bytes]) -> None:
         for raw in iter(stream.readline, b""):
@@ -192,21 +218,51 @@ class Supervisor:
                 print(f"[{name}] {line}", file=self.out, flush=True)
 
     def wait(self, duration: float | None = None) -> int:
-        """Until a stop is requested, ``duration`` passes or a node ends; 0, or 1 when a
-        node ended by itself (every other one is stopped then)."""
+        """Until a stop is requested, ``duration`` passes or a node ends for good; 0, or 1
+        when a node ended for good (every other one is stopped then)."""
         end = None if duration is None else time.time() + duration
         while not self.stop_requested.is_set() and (end is None or time.time() < end):
-            for node, proc in self.procs:
+            now = time.monotonic()
+            for i, (node, proc) in enumerate(self.procs):
+                if i in self._due:
+                    if now >= self._due[i]:
+                        del self._due[i]
+                        self.procs[i] = (node, self._spawn(node))
+                        self.say(f"restarted {node.name} (pid {self.procs[i][1].pid})")
+                    continue
                 code = proc.poll()
-                if code is not None:
-                    self.say(f"{node.name} ended by itself (exit code {code}); stopping the others")
+                if code is not None and self._ended_for_good(i, node, code, now):
                     return 1
             self.stop_requested.wait(0.2)
         return 0
 
+    def _ended_for_good(self, i: int, node: NodeProcess, code: int, now: float) -> bool:
+        how = ended_how(code)
+        if not node.respawn or code in INPUT_WRONG:
+            self.say(f"{node.name} ended by itself ({how}); stopping the others")
+            return True
+        ended = [t for t in self._ended.get(node.name, []) if now - t < RESPAWN_WINDOW_S]
+        ended.append(now)
+        self._ended[node.name] = ended
+        if len(ended) >= RESPAWN_BURST:
+            self.say(
+                f"{node.name} ended {len(ended)} times within {RESPAWN_WINDOW_S:g} s ({how} "
+                "the last time): not restarting it again; stopping the others"
+            )
+            return True
+        delay = max(node.respawn_delay, MIN_RESPAWN_DELAY_S)
+        self.say(
+            f"{node.name} ended by itself ({how}): racc lacks it until it is back; restarting "
+            f"it in {delay:g} s ({len(ended)} of {RESPAWN_BURST} ends allowed in "
+            f"{RESPAWN_WINDOW_S:g} s)"
+        )
+        self._due[i] = now + delay
+        return False
+
     def stop(self) -> None:
         """SIGINT to every node still running, then SIGTERM, then SIGKILL, each after
         :data:`STOP_GRACE_S` (what roslaunch does)."""
+        self._due.clear()
         running = [(n, p) for n, p in self.procs if p.poll() is None]
         for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGKILL):
             for _, proc in running:
@@ -224,6 +280,16 @@ class Supervisor:
         if running:
             codes = ", ".join(f"{n.name} {p.returncode}" for n, p in running)
             self.say(f"stopped {len(running)} nodes (exit codes: {codes})")
+
+
+def ended_how(code: int) -> str:
+    """``exit code 1`` or ``killed by SIGKILL`` (a Popen's negative return code)."""
+    if code < 0:
+        try:
+            return f"killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"killed by signal {-code}"
+    return f"exit code {code}"
 
 
 def _signal_group(proc: subprocess.Popen[bytes], sig: int) -> None:

@@ -23,13 +23,29 @@ from rac.runtime.procs import ProcessProbe
 from rac.runtime.repairer import Actuator, LogEntry, RepairExecutor, Settings
 from rac.runtime.routing import Agent
 from rac.runtime.status import DIAGNOSIS, OBSERVATIONS, REPAIR_LOG, REPAIR_PLAN, Row
+from rac.runtime.trust import CONFIRM, Gate, Trust, read_confirm
 
 POLL_S = 0.05
 STATUS_PERIOD_S = 1.0  # the repairer's status on /diagnostics
+# The engine publishes /diagnosis at least once a second (its heartbeat); a node that has
+# heard none for this long is blind and says so (level 2), and the repairer acts on nothing.
+ENGINE_LOST_S = 3.0
+
+
+class TextPublisher(Protocol):
+    def __call__(self, text: str) -> None: ...
+
+    def listeners(self) -> int:
+        """How many subscribers it is connected to now."""
+        ...
 
 
 class Bus(Protocol):
-    """One ROS node's connection to the graph, as the racc nodes use it."""
+    """One ROS node's connection to the graph, as the racc nodes use it.
+
+    ``trust`` seals what the node publishes for a ``purpose`` and holds the gates its
+    subscriptions pass (:mod:`rac.runtime.trust`); a bus without it (a viewer such as
+    ``racc watch``) neither seals nor checks."""
 
     @property
     def name(self) -> str:
@@ -41,27 +57,46 @@ class Bus(Protocol):
         """False once the node is asked to stop (Ctrl-C, SIGTERM, ROS shutdown)."""
         ...
 
+    @property
+    def trust(self) -> Trust | None: ...
+
     def log(self, level: int, text: str) -> None:
         """Log at a status level: 0 info, 1 warning, 2 and above error."""
         ...
 
     def rows_publisher(
-        self, topic: str, depth: int, latched: bool = False
+        self, topic: str, depth: int, latched: bool = False, purpose: str = ""
     ) -> Callable[[Sequence[Row]], None]:
         """Publish rows as one ``diagnostic_msgs/DiagnosticArray``; ``latched``: the last
-        array is kept for subscribers that join later."""
+        array is kept for subscribers that join later; ``purpose``: sealed for it."""
         ...
 
     def on_rows(
-        self, topic: str, callback: Callable[[list[Row]], None], depth: int, latched: bool = False
+        self,
+        topic: str,
+        callback: Callable[[list[Row]], None],
+        depth: int,
+        latched: bool = False,
+        gate: Gate | None = None,
     ) -> None:
         """Call ``callback`` with the rows of each array on ``topic``; ``latched``: also
-        receive the array a latched publisher kept."""
+        receive the array a latched publisher kept; ``gate``: only arrays it admits."""
         ...
 
-    def on_text(self, topic: str, callback: Callable[[str], None], depth: int) -> None:
-        """Call ``callback`` with each ``std_msgs/String`` on ``topic`` (``~name``: the
-        node's private topic)."""
+    def text_publisher(self, topic: str, depth: int) -> TextPublisher:
+        """Publish ``std_msgs/String`` texts on ``topic`` (sealed by the caller)."""
+        ...
+
+    def on_text(
+        self,
+        topic: str,
+        callback: Callable[[str, str], None],
+        depth: int,
+        gate: Gate | None = None,
+    ) -> None:
+        """Call ``callback(text, sender)`` with each ``std_msgs/String`` on ``topic``
+        (``~name``: the node's private topic); with a ``gate``, only the sealed texts it
+        admits, without their seal, and their sender (else the sender is "")."""
         ...
 
 
@@ -83,16 +118,40 @@ def run_observer_node(
     :class:`HostLoop` samples and publishes (on a change, and every ``republish_s``).
     The transport has subscribed ``host`` to its ``topics`` already; ``each_tick`` runs
     first in each tick with the time (ROS 2 subscribes topics as they appear there)."""
-    publish = bus.rows_publisher(OBSERVATIONS, 10, latched=True)
+    publish = bus.rows_publisher(OBSERVATIONS, 10, latched=True, purpose=OBSERVATIONS)
+    status_pub = bus.rows_publisher(DIAGNOSTICS_TOPIC, 10)
+    trust = bus.trust
+    if trust is not None:
+        host.refuse = trust.refuse
+    seen = [time.time()]  # when a /diagnosis was last admitted (the engine's heartbeat)
+
+    def on_diagnosis(rows: list[Row]) -> None:
+        seen[0] = time.time()
+
+    bus.on_rows(
+        DIAGNOSIS,
+        on_diagnosis,
+        5,
+        latched=True,
+        gate=trust.gate(DIAGNOSIS, latched=True) if trust is not None else None,
+    )
     bus.log(
         0,
         f"racc observe: {len(host.specs)} observers, {topics} topics, {len(probe.nodes)} nodes"
         + (f" (machine {machine})" if machine else ""),
     )
+    if not host.check.known:
+        bus.log(
+            1,
+            "racc observe: the observers file names no topic's publishers (written by an "
+            "older racc): every publisher's messages count; compile the model again",
+        )
     period = 1.0 / sample_hz
     loop = HostLoop(host, probe, republish_s, Schedule(period_s=period))
     # the agent reports what its requests came to where the repairer's own steps go
     agent_log = bus.rows_publisher(REPAIR_LOG, 50, latched=True) if agent is not None else None
+    blind = ""
+    next_status = 0.0
     for now in ticks(period, lambda: bus.ok):
         if each_tick is not None:
             each_tick(now)
@@ -109,6 +168,29 @@ def run_observer_node(
             bus.log(1, f"racc observe: {warning}")
         if step.rows is not None:
             publish(step.rows)
+        silence = engine_silence(seen[0], time.time())
+        if bool(silence) != bool(blind):
+            bus.log(2 if silence else 0, host_blind_line(now, silence))
+        blind = silence
+        if now >= next_status:
+            status_pub(
+                [host_status(bus.name, blind), *([trust.row()] if trust is not None else [])]
+            )
+            next_status = now + STATUS_PERIOD_S
+
+
+def host_status(node: str, blind: str) -> Row:
+    """The observer host's word on ``/diagnostics`` about the diagnosis it feeds."""
+    name = f"{node}: diagnosis"
+    if blind:
+        return Row(name, 2, f"diagnosis blind: {blind}", "", (("blind", "1"),))
+    return Row(name, 0, "the engine's heartbeat is heard", "", (("blind", "0"),))
+
+
+def host_blind_line(t: float, blind: str) -> str:
+    if blind:
+        return f"t={t:.3f} diagnosis blind: {blind}; the observations go on unheard"
+    return f"t={t:.3f} the engine's heartbeat is heard again"
 
 
 def run_engine_node(
@@ -119,16 +201,44 @@ def run_engine_node(
     *,
     rate_hz: float = 1.0,
     max_card: int | None = None,
+    hosts: Sequence[str] = (),
+    reload_dir: str | None = None,
 ) -> None:
     """Diagnose ``/observations`` on ``/diagnosis`` and ``/diagnostics`` until the bus stops;
-    ``~reload`` replaces the model (a path, or empty for the same file)."""
-    engine = EngineLoop(path, load, robot, bus.name, bus.log, rate_hz=rate_hz, max_card=max_card)
-    publish = bus.rows_publisher(DIAGNOSIS, 10, latched=True)
-    summary = bus.rows_publisher(DIAGNOSTICS_TOPIC, 10)
-    bus.on_rows(
-        OBSERVATIONS, lambda rows: engine.observation_rows(rows, time.time()), 50, latched=True
+    ``~reload`` replaces the model (a path inside ``reload_dir``, or empty for the same
+    file).  Observations count only from the observer hosts ``hosts`` (any, when empty)
+    whose arrays carry the robot's seal; ``/diagnosis`` is sealed, and published at least
+    once a second (the engine's heartbeat)."""
+    engine = EngineLoop(
+        path,
+        load,
+        robot,
+        bus.name,
+        bus.log,
+        rate_hz=rate_hz,
+        max_card=max_card,
+        reload_dir=reload_dir,
     )
-    bus.on_text("~reload", engine.request_reload, 5)
+    publish = bus.rows_publisher(DIAGNOSIS, 10, latched=True, purpose=DIAGNOSIS)
+    summary = bus.rows_publisher(DIAGNOSTICS_TOPIC, 10)
+    trust = bus.trust
+    gate = trust.gate(OBSERVATIONS, hosts, latched=True) if trust is not None else None
+    bus.on_rows(
+        OBSERVATIONS,
+        lambda rows: engine.observation_rows(rows, time.time()),
+        50,
+        latched=True,
+        gate=gate,
+    )
+
+    def on_reload(target: str, sender: str) -> None:
+        why = engine.request_reload(target)
+        if why is not None and trust is not None:
+            trust.refuse(sender, "~reload", why)
+        elif why is not None:
+            bus.log(1, f"racc engine: reload of {target} refused: {why}")
+
+    bus.on_text("~reload", on_reload, 5)
     components = len(engine.diagnoser.theory.components)
     bus.log(0, f"racc engine: {path}, {components} components, {rate_hz:.3g} Hz")
     while bus.ok:
@@ -136,7 +246,7 @@ def run_engine_node(
         tick = engine.step(time.time())
         if tick is not None:
             publish(tick.rows)
-            summary([tick.summary, *tick.hosts])
+            summary([tick.summary, *tick.hosts, *([trust.row()] if trust is not None else [])])
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -154,6 +264,8 @@ class RepairJob:
     # machine the repairer runs on: nodes elsewhere are restarted by their machine's agent.
     placements: Mapping[str, tuple[str | None, str | None]] = field(default_factory=dict)
     machine: str | None = None
+    key: bytes | None = None  # the robot's racc secret (rac.load.secret)
+    engine_lost_s: float = ENGINE_LOST_S  # without the engine's heartbeat: blind
 
 
 def run_repair_node(
@@ -165,6 +277,10 @@ def run_repair_node(
 ) -> None:
     """Carry out :class:`RepairExecutor`'s repairs of what ``/observations`` and
     ``/diagnosis`` show, logging each step on ``/repair_log``, until the bus stops.
+    Both count only when sealed by racc's observer hosts and engine; a confirmation only
+    when sealed by an operator (``racc confirm``), whose name the log gives.  Without the
+    engine's heartbeat for :data:`ENGINE_LOST_S` the repairer is blind (level 2 on
+    ``/diagnostics``) and acts on nothing.
 
     The bus's callbacks only queue what they receive; the loop hands it to the executor
     before each tick, so a plan never goes ahead on a diagnosis that cleared while it was
@@ -195,20 +311,37 @@ def run_repair_node(
         background=True,
     )
     inbox: deque[Callable[[], None]] = deque()  # appended by the bus's threads
+    trust = bus.trust
+    seen = [time.time()]  # when a /diagnosis was last admitted (the engine's heartbeat)
 
     def on_observations(rows: list[Row]) -> None:
         t = time.time()
         inbox.append(lambda: executor.observation_rows(rows, t))
 
     def on_diagnosis(rows: list[Row]) -> None:
+        seen[0] = time.time()
         inbox.append(lambda: executor.diagnosis_rows(rows))
 
-    def on_confirm(text: str) -> None:
-        inbox.append(lambda: executor.confirm(text))
+    def on_confirm(text: str, operator: str) -> None:
+        plan, run = read_confirm(text)
+        inbox.append(lambda: executor.confirm(plan, operator or "an unsealed sender", run))
 
-    bus.on_rows(OBSERVATIONS, on_observations, 50, latched=True)
-    bus.on_rows(DIAGNOSIS, on_diagnosis, 10, latched=True)
-    bus.on_text("~confirm", on_confirm, 5)
+    gate = trust.gate if trust is not None else None
+    bus.on_rows(
+        OBSERVATIONS,
+        on_observations,
+        50,
+        latched=True,
+        gate=gate(OBSERVATIONS, latched=True) if gate else None,
+    )
+    bus.on_rows(
+        DIAGNOSIS,
+        on_diagnosis,
+        10,
+        latched=True,
+        gate=gate(DIAGNOSIS, latched=True) if gate else None,
+    )
+    bus.on_text("~confirm", on_confirm, 5, gate=gate(CONFIRM) if gate else None)
     s = job.settings
     bus.log(
         0,
@@ -224,14 +357,23 @@ def run_repair_node(
             inbox.popleft()()
         if middleware is not None:
             executor.middleware(*middleware())
+        executor.blind(engine_silence(seen[0], time.time(), job.engine_lost_s))
         executor.tick()
         if executor.pending_rows() != pending:
             pending = executor.pending_rows()
             plan_pub(pending)
         now = time.time()
         if now >= next_status:
-            status_pub([executor.status(bus.name)])
+            status_pub([executor.status(bus.name), *([trust.row()] if trust is not None else [])])
             next_status = now + STATUS_PERIOD_S
         if after_tick is not None:
             after_tick()
         time.sleep(period)
+
+
+def engine_silence(last: float, now: float, lost_after_s: float = ENGINE_LOST_S) -> str:
+    """Why the diagnosis is blind ("" while the engine's heartbeat is heard)."""
+    silent = now - last
+    if silent < lost_after_s:
+        return ""
+    return f"no /diagnosis from the engine for {silent:.1f} s"

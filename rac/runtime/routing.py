@@ -10,6 +10,11 @@ machine's processes is the one that restarts them; no ssh and no env-loader are 
 it works the same on ROS 2, which has no remote launch.  The executor verifies the effect
 in the observations, as for any step.
 
+The agent acts only on the requests the repairer sealed (:mod:`rac.runtime.trust`; the
+transport checks the seal), and only on its machine's nodes of the model: a request for a
+node the model does not place there, or for one of racc's own nodes, is refused and
+reported.
+
 A node in a container is restarted by restarting its container: ``docker restart NAME``
 (or ``podman``) on the node's machine, and stopped by ``docker stop NAME``.  A request no
 agent listens to, or a container command that fails, is RAC143.
@@ -31,6 +36,7 @@ AGENT_TOPIC = "/racc_agent/{machine}"
 ACTIONS = ("start_node", "stop_node", "kill_node")
 CONTAINER_VERBS = {"start_node": "restart", "stop_node": "stop", "kill_node": "kill"}
 CONTAINER_TIMEOUT_S = 30.0
+RACC_PREFIX = "racc_"  # racc's own nodes: racc_observer, racc_engine, racc_repairer...
 
 Placement = tuple[str | None, str | None]  # (machine, "runtime:NAME" container)
 
@@ -193,9 +199,18 @@ class Agent:
         return LogEntry(self.clock(), level, "agent", node, message)
 
     def _carry_out(self, action: str, node: str, asked: float) -> LogEntry:
-        where, container = self.placements.get(node.strip("/"), (None, None))
         if action not in ACTIONS:
             return self._entry(1, action, node, "refused: unknown action")
+        if node.strip("/").startswith(RACC_PREFIX):
+            return self._entry(1, action, node, "refused: racc never acts on its own nodes")
+        if node.strip("/") not in self.placements:
+            return self._entry(
+                1,
+                action,
+                node,
+                f"refused: '{node}' is no node of machine {self.machine} in the model",
+            )
+        where, container = self.placements[node.strip("/")]
         if where is not None and where != self.machine:
             return self._entry(1, action, node, f"refused: '{node}' runs on {where}")
         try:

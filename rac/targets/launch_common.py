@@ -126,4 +126,5 @@ def render_runtime_launch(compiled: Compiled, template: str = "runtime.launch.j2
         board=board,
         observers=len(compiled.observers),
         machines=machines,
+        hosts=",".join(f"racc_observer_{m['name']}" for m in machines) or "racc_observer",
     )

@@ -69,7 +69,8 @@ def test_the_launch_file_starts_one_host_per_machine() -> None:
     assert '<machine name="arm" address="10.0.0.2"' in launch
     assert 'machine="arm" pkg="racc" type="observe" name="racc_observer_arm"' in launch
     assert "--machine arm --launch=$(arg robot_launch)" in launch
-    assert '--machine base"' in launch  # the repairer runs on the first machine
+    assert '--machine base --secret=$(arg secret)"' in launch  # the repairer: the first machine
+    assert "--hosts racc_observer_base,racc_observer_arm" in launch
 
 
 class Local:

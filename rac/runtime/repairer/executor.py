@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import secrets
 import time
 from collections.abc import Callable, Iterable, Mapping
 
@@ -78,6 +79,10 @@ class RepairExecutor:
         self.budgets = Budgets(settings)
         # Nodes as Θ shows them: for the bring-up grace and the robot's shutdown.
         self.watch = RobotWatch(settings, clock())
+        self._blind = ""  # why the diagnosis cannot be heard ("" while it is)
+        # This run of the repairer: a confirmation names it, so that one meant for an
+        # earlier run (whose plan 3 was another plan) confirms nothing.
+        self.run = secrets.token_hex(4)
         self.repairs = 0  # plans verified
         self.escalations = 0
 
@@ -100,15 +105,41 @@ class RepairExecutor:
         """The transport's word on the robot's middleware (ROS 1: is the master there?)."""
         self.watch.middleware_down = "" if up else (why or "the middleware is gone")
 
-    def confirm(self, plan_id: str) -> None:
-        """An operator confirms the advised plan ``plan_id`` (advisory mode)."""
+    def confirm(self, plan_id: str, operator: str = "an operator", run: str = "") -> None:
+        """``operator`` confirms the advised plan ``plan_id`` (advisory mode); ``run``, when
+        given, must be this executor's :attr:`run` (a confirmation meant for an earlier run
+        of the repairer, whose plan 3 was another plan, confirms nothing)."""
         wanted = plan_id.strip().removeprefix("plan").strip(" -")  # "3", "plan 3", "plan-3"
+        if run and run != self.run:
+            self._emit(
+                WARN,
+                "confirm",
+                self.robot,
+                f"confirmation of plan {wanted} by {operator} refused: it is for another run "
+                f"of the repairer ({run}, this one is {self.run})",
+            )
+            return
         if self.state is State.ADVISED and wanted == str(self.plan_id):
             self._confirmed = True
-            self._emit(OK, "confirm", self.robot, f"plan {self.plan_id} confirmed by an operator")
+            self._emit(OK, "confirm", self.robot, f"plan {self.plan_id} confirmed by {operator}")
             return
         pending = f"plan {self.plan_id}" if self.state is State.ADVISED else "none"
-        self._emit(WARN, "confirm", self.robot, f"'{plan_id}' names no pending plan ({pending})")
+        self._emit(
+            WARN,
+            "confirm",
+            self.robot,
+            f"'{plan_id}' (from {operator}) names no pending plan ({pending})",
+        )
+
+    def blind(self, why: str) -> None:
+        """The transport's word on the diagnosis ("": the engine is heard; else why not):
+        while it is blind, nothing is planned, confirmed or begun but a step that brings
+        back what the plan stopped, and no repair is judged."""
+        if why and not self._blind:
+            self._emit(ERROR, "blind", self.robot, f"diagnosis blind: {why}: acting on nothing")
+        elif not why and self._blind:
+            self._emit(OK, "blind", self.robot, "the diagnosis is back: acting again")
+        self._blind = why
 
     def observation_rows(self, rows: Iterable[Row], t: float) -> None:
         """An ``/observations`` array, as a transport receives it."""
@@ -130,10 +161,16 @@ class RepairExecutor:
         now = self.clock()
         if self._robot_check(now):
             return
+        if self._blind and self.state is State.VERIFYING:
+            # Nothing can be verified without the engine: the time-out waits with it.
+            self._deadline = max(self._deadline, now + self.settings.verify_timeout_s)
+            return
         if self.state is State.IDLE:
-            self._maybe_plan(now)
+            if not self._blind:
+                self._maybe_plan(now)
         elif self.state is State.ADVISED:
-            self._check_advised(now)
+            if not self._blind:
+                self._check_advised(now)
         elif self.state is State.EXECUTING:
             self._check_step(now)
         else:
@@ -227,8 +264,7 @@ class RepairExecutor:
                 WARN,
                 "advise",
                 bad,
-                f"{what}; waiting for an operator: publish the id {self.plan_id} on "
-                "the repairer's ~confirm topic to execute it",
+                f"{what}; waiting for an operator: 'racc confirm {self.plan_id}' executes it",
             )
             return
         self._emit(OK, "plan", bad, what)
@@ -296,6 +332,8 @@ class RepairExecutor:
         """Why ``step`` must not go ahead ("" when it may)."""
         if self._restores(step):
             return ""
+        if self._blind:
+            return f"the diagnosis is blind ({self._blind})"
         diagnoses = self._diagnoses
         if diagnoses == ():
             return "the diagnosis cleared"
@@ -535,6 +573,7 @@ class RepairExecutor:
         s = self.settings
         values: list[tuple[str, str]] = [
             ("mode", s.mode.value),
+            ("run", self.run),
             ("state", self.state.value),
             ("plans", str(self.plan_id)),
             ("verified", str(self.repairs)),
@@ -542,7 +581,9 @@ class RepairExecutor:
         ]
         budget_values, escalated = self.budgets.status(now)
         values += budget_values
-        if self.robot_down:
+        if self._blind:
+            level, message = ERROR, f"diagnosis blind: {self._blind}: acting on nothing"
+        elif self.robot_down:
             level, message = WARN, f"the robot is shutting down ({self.robot_down})"
         elif escalated:
             level, message = ERROR, f"escalated (RAC110): {', '.join(escalated)}"
@@ -569,7 +610,7 @@ class RepairExecutor:
                 WARN,
                 steps_text([step]),
                 self._target(step),
-                (("plan", str(self.plan_id)), ("diagnosis", self._shown())),
+                (("plan", str(self.plan_id)), ("diagnosis", self._shown()), ("run", self.run)),
             )
             for k, step in enumerate(self.plan, 1)
         )

@@ -1,0 +1,120 @@
+"""A stranger on the graph (issue 34), on ROS 1 and on ROS 2: every attack of
+tests/attacks.py against the running demo robot and its runtime.  None may make racc act
+(no plan, no node or device touched), every racc process stays up, each is reported on
+/diagnostics, and a real fault afterwards is still diagnosed and repaired.
+
+The robot is tedusar placed on one declared machine (``machine base``), so that its
+observer host runs the machine's racc agent, which the agent attack aims at.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import time
+
+from attacks import run_attack
+from live_harness import LiveRobot, everything_observed
+from soak_support import all_ok_since, named_since, plans
+
+ATTACK_S = 5.0
+# The real crash, seconds after the runtime is seen: after every attack has ended.
+CRASH_AT = 130.0
+# What each racc node must say it ignored, per attack: (node, words of its status).
+REPORTED = {
+    "flood": ("racc_observer_base", "intruder_flood on /imu_data"),
+    "huge": ("racc_observer_base", "intruder_huge on /pose"),
+    "wrong_type": ("racc_observer_base", "intruder_wrong_type on /pose"),
+    "fake_observations": ("racc_engine", "on /observations: unsealed"),
+    "fake_diagnosis": ("racc_repairer", "on /diagnosis: unsealed"),
+    "fake_board": ("racc_observer_base", "on /board_measurements: unsealed"),
+    "board_switch": ("racc_board_client", "on /board_switch: unsealed"),
+    "reload": ("racc_engine", "outside the model directory"),
+    "agent": ("racc_observer_base", "on /racc_agent/base: unsealed"),
+    "confirm": ("racc_repairer", "on /racc_repairer/confirm: unsealed"),
+}
+
+
+def placed_build(robot: LiveRobot) -> None:
+    """tedusar on a declared machine ``base`` (127.0.0.1), compiled beside the test's."""
+    model = robot.tmp / "tedusar_base.ram"
+    lines = robot.model.read_text(encoding="utf-8").splitlines()
+    at = next(i for i, line in enumerate(lines) if line.startswith("robot "))
+    lines.insert(at + 1, "machine base address 127.0.0.1")
+    model.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    robot.racc("compile", str(model), "-o", str(robot.tmp / "build_base"), "--no-svg", "-q")
+
+
+def reported(robot: LiveRobot, since: float, node: str, words: str) -> bool:
+    with robot.watch.lock:
+        return any(
+            t >= since and name == f"{node}: ignored" and words in message
+            for t, name, _, message in robot.watch.statuses
+        )
+
+
+def test_attacks_from_the_graph_make_racc_do_nothing(robot: LiveRobot) -> None:
+    watch, ros = robot.watch, robot.ros.version
+    placed_build(robot)
+    other = robot.tmp / "elsewhere"
+    other.mkdir(exist_ok=True)
+    (other / "model.yaml").write_text(
+        (robot.build / "model.yaml").read_text(encoding="utf-8").replace("imu_node", "imu_nod"),
+        encoding="utf-8",
+    )
+    demo = robot.start_demo("hostile", [f"crash@+{CRASH_AT:g}:jaguar_node"])
+    runtime: list[subprocess.Popen[bytes]] = []
+    try:
+        robot.wait_demo(60)
+        launched = time.time()
+        runtime = robot.launch_runtime(demo, build=robot.tmp / "build_base")
+        ready = watch.wait(everything_observed(watch, launched, robot.quick_atoms), 45)
+        assert ready is not None, "the runtime did not come up"
+        healthy = watch.wait(all_ok_since(watch, launched, robot.quick_atoms), 30)
+        assert healthy is not None, "never all ok after launch"
+        start = time.time()
+        # One after the other: a dozen ROS processes starting at once would starve the
+        # demo's own Python nodes on two cores, a real slowdown of the robot.
+        arguments = {"reload": str(other / "model.yaml"), "agent": "base"}
+        for a in [*REPORTED, "fake_device"]:
+            log = robot.tmp / f"attack_{a}.log"
+            proc = run_attack(ros, a, ATTACK_S, robot.env, log, arguments.get(a, ""))
+            assert proc.wait(ATTACK_S + 30) == 0, f"the {a} attack did not run"
+        time.sleep(5.0)  # anything the attacks set off has had time to act
+        end = time.time()
+        print(f"\n{robot.ros.id}: attacks from {start - launched:.1f} s to {end - launched:.1f} s")
+        acted = plans(watch, start, end)
+        assert acted == [], f"racc acted on an attack: {acted}"
+        # The engine's own word (its summary on /diagnostics; the monitor's /diagnosis
+        # shows the fake one too): no fault all along.
+        with watch.lock:
+            faulty = [
+                (round(t - start, 1), message)
+                for t, name, level, message in watch.statuses
+                if start <= t < end and name == "racc_engine: diagnosis" and level != 0
+            ]
+        assert faulty == [], f"the engine diagnosed a fault during the attacks: {faulty}"
+        for proc in runtime:
+            assert proc.poll() is None, "a racc process died during the attacks"
+        with watch.lock:
+            racc_nodes = {n for n in watch.nodes if n.startswith("racc_")}
+        assert {"racc_engine", "racc_repairer", "racc_board_client"} <= racc_nodes, racc_nodes
+        missing = [
+            a for a, (node, words) in REPORTED.items() if not reported(robot, start, node, words)
+        ]
+        if ros == 1:
+            fake_device = reported(
+                robot, start, "racc_observer_base", "intruder_fake_device on /diagnostics"
+            )
+            assert fake_device, "the stranger's status of hokuyo was not reported"
+        else:
+            assert reported(robot, start, "racc_observer_base", "on /diagnostics")
+        assert not missing, f"attacks not reported on /diagnostics: {missing}"
+
+        # A real fault afterwards is still diagnosed and repaired.
+        diagnosed = watch.wait(named_since(watch, end, "jaguar_node"), CRASH_AT + 60)
+        assert diagnosed is not None, "the crash after the attacks was not diagnosed"
+        ok_again = watch.wait(all_ok_since(watch, diagnosed, robot.atoms), 30)
+        assert ok_again is not None, "not all ok again after the crash that followed the attacks"
+        print(f"  crash after the attacks: diagnosed and repaired ({ok_again - diagnosed:.1f} s)")
+    finally:
+        robot.stop_scene(demo, runtime)
