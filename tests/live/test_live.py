@@ -26,7 +26,7 @@ from live_harness import (
     pid_alive,
     started_pids,
 )
-from soak_support import LogRow, Watch, all_ok_since, logged_done, named_since
+from soak_support import RACC, LogRow, Watch, all_ok_since, logged_done, named_since
 
 # Fault times, seconds after the runtime is seen (``KIND@+T``, issue 26 item 6): the demo's
 # nodes take from 5 s to over 20 s to come up on a loaded machine, and the runtime's
@@ -358,10 +358,11 @@ def first_confirm_reply(watch: Watch, after: float) -> float | None:
 
 def test_an_advised_plan_waits_for_the_operators_confirmation(robot: LiveRobot) -> None:
     # Advisory mode (issue 22, goal 4), the way many operators run racc first: a crash
-    # gives a plan on /repair_log ("advise") and nothing is done until an operator
-    # publishes the plan's id on /racc_repairer/confirm; then it is executed.  A plan whose
-    # diagnosis changes while it waits is withdrawn and the next one advised: the operator
-    # confirms the one pending, as someone reading /repair_plan would.
+    # gives a plan on /repair_log ("advise") and nothing is done until an operator confirms
+    # it with 'racc confirm ID'; then it is executed, and the log names the operator.  A
+    # plan whose diagnosis changes while it waits is withdrawn and the next one advised: the
+    # operator confirms the one pending, as someone reading /repair_plan would.  The plan's
+    # id published by anyone without the robot's secret (issue 34) confirms nothing.
     watch = robot.watch
     crash_at = 15.0
     demo = robot.start_demo("demo6", [f"crash@+{crash_at:g}:imu_node"])
@@ -375,7 +376,7 @@ def test_an_advised_plan_waits_for_the_operators_confirmation(robot: LiveRobot) 
             """The plan awaiting confirmation: the last one advised, unless withdrawn."""
             waiting: tuple[float, str] | None = None
             for t, action, _, _, message in watch.since(crash):
-                found = re.search(r"publish the id (\d+)", message)
+                found = re.search(r"'racc confirm (\d+)'", message)
                 if action == "advise" and found is not None:
                     waiting = (t, found.group(1))
                 elif action == "advise" and "withdrawn" in message:
@@ -391,6 +392,13 @@ def test_an_advised_plan_waits_for_the_operators_confirmation(robot: LiveRobot) 
         time.sleep(8.0)  # longer than confirmation and a step: an acting engine would have
         acted = [r for r in watch.since(crash) if r[1] in ("plan", "stop_node", "start_node")]
         assert not acted, acted
+        plan = pending()
+        assert plan is not None
+        forged = time.time()
+        robot.publish_text("/racc_repairer/confirm", plan[1])  # no seal: a stranger's
+        time.sleep(3.0)
+        acted = [r for r in watch.since(forged) if r[1] in ("confirm", "start_node")]
+        assert not acted, f"an unsealed confirmation was taken: {acted}"
         confirmed: list[LogRow] = []
         for _ in range(3):
             if watch.wait(pending_since, 20) is None:
@@ -398,12 +406,20 @@ def test_an_advised_plan_waits_for_the_operators_confirmation(robot: LiveRobot) 
             plan = pending()
             assert plan is not None
             sent = time.time()
-            robot.publish_text("/racc_repairer/confirm", plan[1])
+            answer = subprocess.run(
+                [*RACC, "confirm", *robot.ros.flag, plan[1], "--operator", "alice"],
+                env=robot.env,
+                timeout=60,
+                capture_output=True,
+                text=True,
+            )
             watch.wait(partial(first_confirm_reply, watch, sent), 15)
             confirmed = [r for r in watch.since(sent) if r[1] == "confirm"]
-            if confirmed and "confirmed by an operator" in confirmed[0][4]:
+            if confirmed and "confirmed by alice" in confirmed[0][4]:
+                assert answer.returncode == 0, answer.stdout + answer.stderr
+                assert "confirmed by alice" in answer.stdout, answer.stdout
                 break
-        assert confirmed and "confirmed by an operator" in confirmed[0][4], watch.since(crash)
+        assert confirmed and "confirmed by alice" in confirmed[0][4], watch.since(crash)
         deadline = time.time() + 30
         while time.time() < deadline and logged_done(watch, at, "start_node", "imu_node") is None:
             time.sleep(0.2)
