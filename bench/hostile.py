@@ -21,6 +21,7 @@ import argparse
 import sys
 import tempfile
 import time
+from functools import partial
 from pathlib import Path
 
 import psutil
@@ -75,7 +76,7 @@ def main() -> int:
     args = parser.parse_args()
     ros = ROS1 if args.ros == 1 else ROS2
     chosen = [a for a in args.only.split(",") if a] or list(ATTACKS)
-    rows = []
+    rows: list[tuple[str, str, int, float, str, str]] = []
     with (
         tempfile.TemporaryDirectory(prefix="racc_hostile_") as tmp,
         live_robot(ros, Path(tmp)) as robot,
@@ -123,7 +124,7 @@ def main() -> int:
                 for t, action, target, _, message in wrong:
                     print(f"  {attack}: {t - start:+.1f} s {action}({target}): {message[:120]}")
                 # The crash's repair is over (its last step logged) before the next attack.
-                watch.wait(lambda: logged_done(watch, crash, "start_node", victim), 60)
+                watch.wait(partial(logged_done, watch, crash, "start_node", victim), 60)
                 watch.wait(all_ok_since(watch, crash + 1.0, robot.atoms), 60)
                 time.sleep(2.0)
         finally:
@@ -132,8 +133,8 @@ def main() -> int:
     print("| attack | racc process died | wrong actions | observer host cpu |", end="")
     print(" crash after it | diagnosed after |")
     print("| --- | --- | ---: | ---: | --- | ---: |")
-    for attack, dead, wrong, cpu, victim, latency in rows:
-        print(f"| {attack} | {dead} | {wrong} | {cpu:.0f} % | {victim} | {latency} s |")
+    for row in rows:
+        print("| {} | {} | {} | {:.0f} % | {} | {} s |".format(*row))
     return 0 if all(r[1] == "none" and r[2] == 0 for r in rows) else 1
 
 
