@@ -67,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
     from rac.runtime.confirm import confirm
     from rac.runtime.trust import OPERATOR
 
-    key = load_secret(args.secret or None)
+    key = load_secret(args.secret or None, create=False)  # an operator makes no new key
     name = f"racc_confirm_{os.getpid()}"
     operator = operator_name(args.operator)
     if ros_version(args) == 2:
