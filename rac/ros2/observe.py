@@ -93,6 +93,8 @@ def run_observe(
             return
 
         def on_message(raw: bytes) -> None:
+            if topic in host.suspended:
+                return  # whose it is cannot be told: nothing of it is read
             values, stamp = readers.read(topic, raw, lambda: (ros_type, ""))
             host.message(topic, values, stamp)
 

@@ -53,6 +53,8 @@ class ObserverHost:
         self.check = SourceCheck(sources)
         self.reporters = device_reporters(self.specs)
         self.refuse: Callable[[str, str, str], None] = lambda source, topic, reason: None
+        # Topics whose observers are suspended: a transport drops their messages unread.
+        self.suspended: set[str] = set()
         # Seconds since the host started: small numbers keep the observers' running sums
         # (regressions over time) accurate, which epoch seconds (~1.8e9) would not.
         start = time.monotonic()
@@ -176,6 +178,7 @@ class ObserverHost:
             if self.bank.suspended(topic):
                 return
             atoms = self.bank.suspend(topic)
+            self.suspended.add(topic)
             self.notes.append(
                 f"t={self.wall(self._now()):.3f} observers of {topic} suspended ({why}): "
                 f"{len(atoms)} atoms unknown"
@@ -187,6 +190,7 @@ class ObserverHost:
             if not self.bank.suspended(topic):
                 return
             self.bank.resume(topic)
+            self.suspended.discard(topic)
             self.notes.append(
                 f"t={self.wall(self._now()):.3f} observers of {topic} resumed, afresh: only "
                 "the model's publishers publish it again"
