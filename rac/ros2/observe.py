@@ -101,6 +101,21 @@ def run_observe(
         subs[topic] = node.create_subscription(cls, topic, on_message, sensor_qos(), raw=True)
         kinds[topic] = ros_type if not declared or message_class(declared) is None else declared
 
+    parked: dict[str, Any] = {}  # contested topics: unsubscribed meanwhile, and their type
+
+    def park(topic: str) -> None:
+        """A contested topic's messages are not read: while a stranger floods it, its
+        subscription is dropped, so that DDS delivers none of them to this process."""
+        sub = subs.get(topic)
+        if sub is not None and topic not in parked:
+            node.destroy_subscription(sub)
+            parked[topic] = kinds.get(topic, "")
+
+    def unpark(topic: str) -> None:
+        kind = parked.pop(topic, None)
+        if kind is not None:
+            subscribe(topic, kind)
+
     def discover(now: float) -> None:
         nonlocal next_discover
         if now < next_discover or len(subs) == len(wanted):
@@ -154,7 +169,9 @@ def run_observe(
                     contested.append(f"{publisher} publishes it too")
             if contested:
                 host.suspend_topic(topic, "; ".join(contested))
+                park(topic)
             else:
+                unpark(topic)
                 host.resume_topic(topic)
         if bank.devices:
             # Whose status a /diagnostics message is cannot be told here: while a node that

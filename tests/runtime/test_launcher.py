@@ -153,3 +153,59 @@ def test_a_node_stopped_while_it_starts_ends_without_a_traceback(ros: int, tmp_p
     proc.wait(30)
     assert "Traceback" not in err and "KeyboardInterrupt" not in err
     assert proc.returncode == 0
+
+
+def test_racc_run_restarts_a_node_that_dies_and_gives_up_on_a_crash_loop(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # Issue 34: a racc node killed under racc run is started again, its loss and return
+    # said; one that keeps dying (5 ends within 60 s) stops everything.
+    import io
+
+    from rac.runtime import launcher
+    from rac.runtime.launcher import NodeProcess, Supervisor
+
+    monkeypatch.setattr(launcher, "MIN_RESPAWN_DELAY_S", 0.1)
+    dies = "import os, signal, time; time.sleep(0.3); os.kill(os.getpid(), signal.SIGKILL)"
+    out = io.StringIO()
+    supervisor = Supervisor(out, quiet=True)
+    supervisor.start(NodeProcess("racc_engine", (sys.executable, "-c", dies), respawn=True), {})
+    supervisor.start(
+        NodeProcess("stays", (sys.executable, "-c", "import time; time.sleep(60)")), {}
+    )
+    try:
+        assert supervisor.wait(30) == 1
+    finally:
+        supervisor.stop()
+    text = out.getvalue()
+    assert text.count("racc_engine ended by itself (killed by SIGKILL): racc lacks it") == 4
+    assert text.count("restarted racc_engine (pid") == 4
+    assert "racc_engine ended 5 times within 60 s (killed by SIGKILL the last time)" in text
+    assert "stopped 1 nodes" in text  # the other node, stopped with it
+
+
+def test_racc_run_does_not_restart_a_node_whose_input_is_wrong() -> None:
+    import io
+
+    from rac.runtime.launcher import NodeProcess, Supervisor
+
+    out = io.StringIO()
+    supervisor = Supervisor(out, quiet=True)
+    bad = NodeProcess("racc_engine", (sys.executable, "-c", "raise SystemExit(1)"), respawn=True)
+    supervisor.start(bad, {})
+    try:
+        assert supervisor.wait(20) == 1
+    finally:
+        supervisor.stop()
+    assert "racc_engine ended by itself (exit code 1); stopping the others" in out.getvalue()
+    assert "restarted" not in out.getvalue()
+
+
+def test_the_compiled_launch_files_respawn_racc_and_pass_the_secret(build: Path) -> None:
+    from rac.ros2.launch import load_launch
+
+    nodes = load_launch(build / "observers.launch.xml", {"secret": "/k"})
+    assert nodes and all(n.respawn and n.respawn_delay == 2.0 for n in nodes)
+    assert all("--secret=/k" in n.args for n in nodes)
+    text = (build / "observers.launch").read_text()
+    assert text.count('respawn="true" respawn_delay="2"') == text.count('pkg="racc"')

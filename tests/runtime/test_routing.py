@@ -147,6 +147,21 @@ def test_the_agent_restarts_only_the_nodes_of_its_machine() -> None:
     assert bare.reports()[0].level == 2  # no launch file to start it from
 
 
+def test_the_agent_never_acts_on_racc_or_on_a_node_outside_the_model() -> None:
+    # Issue 34: /racc_agent/arm with stop_node of /rosout (not in the model) or of
+    # racc_engine stopped them; now each is refused and reported, and nothing is done.
+    local = Local()
+    agent = Agent("arm", node_placements(_compiled().observers), local)
+    for node in ("racc_engine", "/racc_repairer", "rosout", "/rosout", "nobody"):
+        agent.request("stop_node", node)
+    assert agent.wait_idle(5.0)
+    reports = agent.reports()
+    assert local.calls == []
+    assert [r.level for r in reports] == [1] * 5
+    assert "racc never acts on its own nodes" in reports[0].message
+    assert "is no node of machine arm in the model" in reports[2].message
+
+
 def test_the_agents_work_does_not_hold_up_its_host_and_failures_are_reported(
     tmp_path: Path,
 ) -> None:
