@@ -30,7 +30,14 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 
 from attacks import ATTACKS, run_attack  # noqa: E402
-from live_harness import ROS1, ROS2, LiveRobot, everything_observed, live_robot  # noqa: E402
+from live_harness import (  # noqa: E402
+    ROS1,
+    ROS2,
+    LiveRobot,
+    everything_observed,
+    kill_node,
+    live_robot,
+)
 from soak_support import all_ok_since, logged_done, named_since, plans  # noqa: E402
 
 VICTIMS = ("joy_node", "rviz", "hector_mapping", "laser_alignment_node", "jaguar_teleop_node")
@@ -45,16 +52,6 @@ def racc_processes(ros: int) -> dict[str, psutil.Process]:
             if arg.startswith(marker + "racc_"):
                 found[arg.removeprefix(marker)] = proc
     return found
-
-
-def kill_node(ros: int, node: str) -> float:
-    marker = f"__name:={node}" if ros == 1 else f"__node:={node}"
-    found = [p for p in psutil.process_iter(["cmdline"]) if marker in (p.info["cmdline"] or [])]
-    outer = [p for p in found if all(p.ppid() != q.pid for q in found)]
-    now = time.time()
-    for proc in outer:
-        proc.kill()
-    return now
 
 
 def compile_placed(robot: LiveRobot) -> Path:

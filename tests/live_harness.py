@@ -364,6 +364,21 @@ def not_matched(watch: Watch, epoch: float) -> list[tuple[float, str]]:
 # -- processes ------------------------------------------------------------------------------
 
 
+def kill_node(ros: int, node: str) -> float:
+    """``kill -9`` of a demo node's process (its body, which getPid shows, ends with it):
+    the outermost process whose command line names the node; when."""
+    import psutil
+
+    marker = f"__name:={node}" if ros == 1 else f"__node:={node}"
+    found = [p for p in psutil.process_iter(["cmdline"]) if marker in (p.info["cmdline"] or [])]
+    outer = [p for p in found if all(p.ppid() != q.pid for q in found)]
+    assert outer, f"no process of {node}"
+    now = time.time()
+    for proc in outer:
+        proc.kill()
+    return now
+
+
 def pid_alive(pid: int) -> bool:
     import psutil
 

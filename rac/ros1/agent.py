@@ -14,7 +14,7 @@ from rac.ros1.common import Ros1Bus
 from rac.runtime.nodes import RepairJob
 from rac.runtime.repairer import Actuator
 from rac.runtime.routing import Agent, RoutedActuator, agent_started, agent_topic, no_agent
-from rac.runtime.trust import AGENT
+from rac.runtime.trust import AGENT, guard_kv
 
 CONNECT_S = 3.0  # for the agents' subscriptions to connect before the first request
 
@@ -50,13 +50,10 @@ def serve_agent(bus: Ros1Bus, agent: Agent) -> Any:
     topic, trust = agent_topic(agent.machine), bus.trust
     gate = trust.gate(AGENT + agent.machine) if trust is not None else None
 
+    request = guard_kv(trust, topic, gate, agent.request)
+
     def receive(msg: Any) -> None:
-        if trust is None or gate is None:
-            agent.request(msg.key, msg.value)
-            return
-        admitted = trust.check_kv(topic, gate, msg.key, msg.value)
-        if admitted is not None:
-            agent.request(msg.key, admitted[0])
+        request(msg.key, msg.value)
 
     return bus.rospy.Subscriber(topic, KeyValue, receive, queue_size=20)
 

@@ -15,7 +15,7 @@ from rac.board.client import BoardAddress
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC
 from rac.ros1.common import Ros1Bus
 from rac.runtime.board import SwitchRequests, run_board_link
-from rac.runtime.trust import BOARD_CLIENT, BOARD_SWITCH
+from rac.runtime.trust import BOARD_CLIENT, BOARD_SWITCH, guard_kv
 
 SWITCH_TOPIC = "/board_switch"
 
@@ -37,14 +37,10 @@ def run_board_client(
     requests = SwitchRequests()
     trust = bus.trust
     gate = trust.gate(BOARD_SWITCH) if trust is not None else None
+    switch = guard_kv(trust, SWITCH_TOPIC, gate, requests.put)
 
     def on_switch(kv: Any) -> None:
-        if trust is None or gate is None:
-            requests.put(kv.key, kv.value)
-            return
-        admitted = trust.check_kv(SWITCH_TOPIC, gate, kv.key, kv.value)
-        if admitted is not None:
-            requests.put(kv.key, admitted[0])
+        switch(kv.key, kv.value)
 
     rospy.Subscriber(SWITCH_TOPIC, KeyValue, on_switch, queue_size=10)
     run_board_link(

@@ -19,7 +19,7 @@ from rac.errors import Diagnostic, RacError
 from rac.runtime.placement import Found, prove_ros1
 from rac.runtime.procs import UNANSWERED
 from rac.runtime.status import Row, rows_from_array
-from rac.runtime.trust import Gate, Trust
+from rac.runtime.trust import Gate, Trust, guard_rows, guard_text
 
 CALLER = "/racc"
 XMLRPC_TIMEOUT_S = 0.5
@@ -222,18 +222,10 @@ class Ros1Bus:
         # A ROS 1 subscriber receives a latched publisher's last message anyway.
         from diagnostic_msgs.msg import DiagnosticArray
 
-        trust = self._trust if gate is not None else None
+        guarded = guard_rows(self._trust, topic, gate, callback)
 
         def receive(array: Any) -> None:
-            rows = rows_from_array(array)
-            sealed = array.header.frame_id
-            if (
-                trust is not None
-                and gate is not None
-                and not trust.check_rows(topic, gate, sealed, rows)
-            ):
-                return
-            callback(rows)
+            guarded(rows_from_array(array), array.header.frame_id)
 
         self.rospy.Subscriber(topic, DiagnosticArray, receive, queue_size=depth)
 
@@ -251,18 +243,9 @@ class Ros1Bus:
     ) -> None:
         from std_msgs.msg import String
 
-        trust = self._trust if gate is not None else None
         shown = str(self.rospy.resolve_name(topic))  # ~confirm: /racc_repairer/confirm
-
-        def receive(msg: Any) -> None:
-            if trust is None or gate is None:
-                callback(msg.data, "")
-                return
-            admitted = trust.check_text(shown, gate, msg.data)
-            if admitted is not None:
-                callback(*admitted)
-
-        self.rospy.Subscriber(topic, String, receive, queue_size=depth)
+        guarded = guard_text(self._trust, shown, gate, callback)
+        self.rospy.Subscriber(topic, String, lambda msg: guarded(msg.data), queue_size=depth)
 
 
 class MasterRegistration:

@@ -14,7 +14,7 @@ from rac.ros2.common import Session, reliable
 from rac.runtime.nodes import RepairJob
 from rac.runtime.repairer import Actuator
 from rac.runtime.routing import Agent, RoutedActuator, agent_started, agent_topic, no_agent
-from rac.runtime.trust import AGENT
+from rac.runtime.trust import AGENT, guard_kv
 
 CONNECT_S = 3.0  # for the agents' subscriptions to be matched before the first request
 
@@ -59,13 +59,10 @@ def start_agent(
     topic, trust = agent_topic(machine), session.trust
     gate = trust.gate(AGENT + machine) if trust is not None else None
 
+    request = guard_kv(trust, topic, gate, agent.request)
+
     def receive(msg: Any) -> None:
-        if trust is None or gate is None:
-            agent.request(msg.key, msg.value)
-            return
-        admitted = trust.check_kv(topic, gate, msg.key, msg.value)
-        if admitted is not None:
-            agent.request(msg.key, admitted[0])
+        request(msg.key, msg.value)
 
     session.node.create_subscription(KeyValue, topic, receive, reliable(20))
     session.log(0, agent_started(machine, launch))

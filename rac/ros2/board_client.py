@@ -12,7 +12,7 @@ from rac.board.client import BoardAddress
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC
 from rac.ros2.common import Session, reliable
 from rac.runtime.board import SwitchRequests, run_board_link
-from rac.runtime.trust import BOARD_CLIENT, BOARD_SWITCH
+from rac.runtime.trust import BOARD_CLIENT, BOARD_SWITCH, guard_kv
 
 SWITCH_TOPIC = "/board_switch"
 
@@ -34,14 +34,10 @@ def run_board_client(
     requests = SwitchRequests()
     trust = session.trust
     gate = trust.gate(BOARD_SWITCH) if trust is not None else None
+    switch = guard_kv(trust, SWITCH_TOPIC, gate, requests.put)
 
     def on_switch(kv: Any) -> None:
-        if trust is None or gate is None:
-            requests.put(kv.key, kv.value)
-            return
-        admitted = trust.check_kv(SWITCH_TOPIC, gate, kv.key, kv.value)
-        if admitted is not None:
-            requests.put(kv.key, admitted[0])
+        switch(kv.key, kv.value)
 
     node.create_subscription(KeyValue, SWITCH_TOPIC, on_switch, reliable(10))
     try:

@@ -19,7 +19,7 @@ from rac.ros2.args import ROS_ARGS
 from rac.runtime.placement import Found, prove_by_cmdline
 from rac.runtime.procs import innermost, node_processes, process_table
 from rac.runtime.status import Row, rows_from_array
-from rac.runtime.trust import Gate, Trust
+from rac.runtime.trust import Gate, Trust, guard_rows, guard_text
 
 HINT = (
     "source a ROS 2 installation (Humble or Jazzy: 'source /opt/ros/jazzy/setup.bash'), or "
@@ -147,18 +147,10 @@ class Session:
         a latched publisher kept."""
         from diagnostic_msgs.msg import DiagnosticArray
 
-        trust = self._trust if gate is not None else None
+        guarded = guard_rows(self._trust, topic, gate, callback)
 
         def receive(array: Any) -> None:
-            rows = rows_from_array(array)
-            sealed = array.header.frame_id
-            if (
-                trust is not None
-                and gate is not None
-                and not trust.check_rows(topic, gate, sealed, rows)
-            ):
-                return
-            callback(rows)
+            guarded(rows_from_array(array), array.header.frame_id)
 
         self.node.create_subscription(DiagnosticArray, topic, receive, reliable(depth, latched))
 
@@ -179,18 +171,9 @@ class Session:
 
         if topic.startswith("~") and not topic.startswith("~/"):
             topic = "~/" + topic[1:]
-        trust = self._trust if gate is not None else None
         shown = str(self.node.resolve_topic_name(topic))  # ~/confirm: /racc_repairer/confirm
-
-        def receive(msg: Any) -> None:
-            if trust is None or gate is None:
-                callback(msg.data, "")
-                return
-            admitted = trust.check_text(shown, gate, msg.data)
-            if admitted is not None:
-                callback(*admitted)
-
-        self.node.create_subscription(String, topic, receive, reliable(depth))
+        guarded = guard_text(self._trust, shown, gate, callback)
+        self.node.create_subscription(String, topic, lambda msg: guarded(msg.data), reliable(depth))
 
     def log(self, level: int, text: str) -> None:
         # rclpy's logger ties a severity to each call site: one line per level.

@@ -357,3 +357,53 @@ def read_confirm(body: str) -> tuple[str, str]:
     if isinstance(data, dict):
         return str(data.get("plan", "")).strip(), str(data.get("run", "")).strip()
     return str(data).strip(), ""
+
+
+# -- what a transport hands its subscriptions (one check for every ROS and message kind) ---
+
+
+def guard_rows(
+    trust: Trust | None, topic: str, gate: Gate | None, callback: Callable[[list[Row]], None]
+) -> Callable[[list[Row], str], None]:
+    """``receive(rows, seal)`` for a status-array subscription: ``callback`` with the rows
+    a gate admits (with no gate or no trust, every array)."""
+
+    def receive(rows: list[Row], seal: str) -> None:
+        if trust is None or gate is None or trust.check_rows(topic, gate, seal, rows):
+            callback(rows)
+
+    return receive
+
+
+def guard_text(
+    trust: Trust | None, topic: str, gate: Gate | None, callback: Callable[[str, str], None]
+) -> Callable[[str], None]:
+    """``receive(text)`` for a ``String`` subscription: ``callback(body, sender)`` with what a
+    gate admits (with no gate or no trust, every text, sender "")."""
+
+    def receive(text: str) -> None:
+        if trust is None or gate is None:
+            callback(text, "")
+            return
+        admitted = trust.check_text(topic, gate, text)
+        if admitted is not None:
+            callback(*admitted)
+
+    return receive
+
+
+def guard_kv(
+    trust: Trust | None, topic: str, gate: Gate | None, callback: Callable[[str, str], None]
+) -> Callable[[str, str], None]:
+    """``receive(key, value)`` for a ``KeyValue`` subscription: ``callback(key, value)``
+    with what a gate admits, the value without its seal (with no gate or no trust, all)."""
+
+    def receive(key: str, value: str) -> None:
+        if trust is None or gate is None:
+            callback(key, value)
+            return
+        admitted = trust.check_kv(topic, gate, key, value)
+        if admitted is not None:
+            callback(key, admitted[0])
+
+    return receive

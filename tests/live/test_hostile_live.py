@@ -12,9 +12,8 @@ from __future__ import annotations
 import subprocess
 import time
 
-import psutil
 from attacks import run_attack
-from live_harness import LiveRobot, everything_observed
+from live_harness import LiveRobot, everything_observed, kill_node
 from soak_support import all_ok_since, named_since, plans
 
 ATTACK_S = 5.0
@@ -41,16 +40,6 @@ def placed_build(robot: LiveRobot) -> None:
     lines.insert(at + 1, "machine base address 127.0.0.1")
     model.write_text("\n".join(lines) + "\n", encoding="utf-8")
     robot.racc("compile", str(model), "-o", str(robot.tmp / "build_base"), "--no-svg", "-q")
-
-
-def kill_node(robot: LiveRobot, node: str) -> None:
-    """``kill -9`` of a demo node's process (its body, which getPid shows, ends with it)."""
-    marker = f"__name:={node}" if robot.ros.version == 1 else f"__node:={node}"
-    found = [p for p in psutil.process_iter(["cmdline"]) if marker in (p.info["cmdline"] or [])]
-    outer = [p for p in found if all(p.ppid() != q.pid for q in found)]
-    assert outer, f"no process of {node}"
-    for proc in outer:
-        proc.kill()
 
 
 def reported(robot: LiveRobot, since: float, node: str, words: str) -> bool:
@@ -121,7 +110,7 @@ def test_attacks_from_the_graph_make_racc_do_nothing(robot: LiveRobot) -> None:
 
         # A real fault afterwards is still diagnosed and repaired.
         crash = time.time()
-        kill_node(robot, "jaguar_node")
+        kill_node(robot.ros.version, "jaguar_node")
         diagnosed = watch.wait(named_since(watch, crash, "jaguar_node"), 30)
         assert diagnosed is not None, "the crash after the attacks was not diagnosed"
         ok_again = watch.wait(all_ok_since(watch, diagnosed, robot.atoms), 30)

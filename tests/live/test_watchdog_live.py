@@ -17,7 +17,7 @@ import subprocess
 import time
 
 import psutil
-from live_harness import LiveRobot, wait_for_text
+from live_harness import LiveRobot, kill_node, wait_for_text
 from soak_support import RACC, all_ok_since, free_port, named_since, plans
 
 BLIND_HOLD_S = 8.0  # how long a crash must stay unrepaired while blind
@@ -28,18 +28,6 @@ def racc_pid(log: str, node: str) -> int:
     found = re.findall(rf"(?:started|restarted) {node} \(pid (\d+)\)", log)
     assert found, f"no pid of {node} in racc run's output"
     return int(found[-1])
-
-
-def kill_node(robot: LiveRobot, node: str) -> float:
-    """``kill -9`` of a demo node's process (its body ends with it); when."""
-    marker = f"__name:={node}" if robot.ros.version == 1 else f"__node:={node}"
-    found = [p for p in psutil.process_iter(["cmdline"]) if marker in (p.info["cmdline"] or [])]
-    outer = [p for p in found if all(p.ppid() != q.pid for q in found)]
-    assert outer, f"no process of {node}"
-    now = time.time()
-    for proc in outer:
-        proc.kill()
-    return now
 
 
 def blind_since(robot: LiveRobot, after: float) -> float | None:
@@ -99,7 +87,7 @@ def test_racc_run_restarts_its_nodes_and_acts_on_nothing_while_blind(robot: Live
             print(f"\n{ros.id}: blind {blind - lost:.2f} s after the engine hung")
             # (the monitor itself may see the status a few seconds late on a loaded machine)
             assert blind - lost <= BLIND_WITHIN_S + 5.0
-            crash = kill_node(robot, "joy_node")
+            crash = kill_node(robot.ros.version, "joy_node")
             time.sleep(BLIND_HOLD_S)  # far longer than the confirmation and a step
             assert plans(watch, lost, time.time()) == [], "racc acted while blind"
         finally:

@@ -16,7 +16,14 @@ import psutil
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from live_harness import ROS1, LiveRobot, everything_observed, live_robot, start_roscore
+from live_harness import (
+    ROS1,
+    LiveRobot,
+    everything_observed,
+    kill_node,
+    live_robot,
+    start_roscore,
+)
 from soak_support import all_ok_since, named_since, plans
 
 if not ROS1.required() and ROS1.missing() is not None:
@@ -67,7 +74,7 @@ def test_after_a_master_restart_racc_registers_again_and_hears_a_restarted_node(
         assert plans(watch, stopped, time.time()) == [], "racc acted while the master was away"
 
         # A node killed now is restarted by racc and heard again.
-        crash = kill_node("jaguar_node")
+        crash = kill_node(1, "jaguar_node")
         named = watch.wait(named_since(watch, crash, "jaguar_node"), 20)
         assert named is not None, "the crash after the master's restart was not diagnosed"
         healthy = watch.wait(all_ok_since(watch, named, robot.atoms), 40)
@@ -78,15 +85,3 @@ def test_after_a_master_restart_racc_registers_again_and_hears_a_restarted_node(
         )
     finally:
         robot.stop_scene(demo, runtime)
-
-
-def kill_node(node: str) -> float:
-    """``kill -9`` of a demo node's process (its body ends with it); when."""
-    marker = f"__name:={node}"
-    found = [p for p in psutil.process_iter(["cmdline"]) if marker in (p.info["cmdline"] or [])]
-    outer = [p for p in found if all(p.ppid() != q.pid for q in found)]
-    assert outer, f"no process of {node}"
-    now = time.time()
-    for proc in outer:
-        proc.kill()
-    return now

@@ -40,6 +40,8 @@ from rac.runtime.trust import (
     Gate,
     Trust,
     confirm_body,
+    guard_rows,
+    guard_text,
 )
 from rac.targets import EmitOptions, emit_all
 
@@ -134,11 +136,7 @@ class FakeBus:
         latched: bool = False,
         gate: Gate | None = None,
     ) -> None:
-        def receive(rows: list[Row], seal: str) -> None:
-            if gate is None or self._trust.check_rows(topic, gate, seal, rows):
-                callback(rows)
-
-        self.rows_callbacks[topic] = receive
+        self.rows_callbacks[topic] = guard_rows(self._trust, topic, gate, callback)
 
     def text_publisher(self, topic: str, depth: int) -> Texts:
         return Texts(self.texts.setdefault(topic, []))
@@ -146,15 +144,7 @@ class FakeBus:
     def on_text(
         self, topic: str, callback: Callable[[str, str], None], depth: int, gate: Gate | None = None
     ) -> None:
-        def receive(text: str) -> None:
-            if gate is None:
-                callback(text, "")
-                return
-            admitted = self._trust.check_text(topic, gate, text)
-            if admitted is not None:
-                callback(*admitted)
-
-        self.text_callbacks[topic] = receive
+        self.text_callbacks[topic] = guard_text(self._trust, topic, gate, callback)
 
 
 @pytest.fixture(scope="module")
