@@ -33,10 +33,10 @@ from attacks import ATTACKS, run_attack  # noqa: E402
 from live_harness import (  # noqa: E402
     ROS1,
     ROS2,
-    LiveRobot,
     everything_observed,
     kill_node,
     live_robot,
+    placed_build,
 )
 from soak_support import all_ok_since, logged_done, named_since, plans  # noqa: E402
 
@@ -54,17 +54,6 @@ def racc_processes(ros: int) -> dict[str, psutil.Process]:
     return found
 
 
-def compile_placed(robot: LiveRobot) -> Path:
-    model = robot.tmp / "tedusar_base.ram"
-    lines = robot.model.read_text(encoding="utf-8").splitlines()
-    at = next(i for i, line in enumerate(lines) if line.startswith("robot "))
-    lines.insert(at + 1, "machine base address 127.0.0.1")
-    model.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    build = robot.tmp / "build_base"
-    robot.racc("compile", str(model), "-o", str(build), "--no-svg", "-q")
-    return build
-
-
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--ros", type=int, choices=(1, 2), default=1)
@@ -79,7 +68,7 @@ def main() -> int:
         live_robot(ros, Path(tmp)) as robot,
     ):
         watch = robot.watch
-        build = compile_placed(robot)
+        build = placed_build(robot)
         elsewhere = robot.tmp / "elsewhere"
         elsewhere.mkdir()
         (elsewhere / "model.yaml").write_text((build / "model.yaml").read_text(), "utf-8")

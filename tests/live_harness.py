@@ -364,6 +364,19 @@ def not_matched(watch: Watch, epoch: float) -> list[tuple[float, str]]:
 # -- processes ------------------------------------------------------------------------------
 
 
+def placed_build(robot: LiveRobot) -> Path:
+    """tedusar placed on one declared machine ``base`` (127.0.0.1), compiled beside the
+    test's build: its observer host then runs that machine's racc agent."""
+    model = robot.tmp / "tedusar_base.ram"
+    lines = robot.model.read_text(encoding="utf-8").splitlines()
+    at = next(i for i, line in enumerate(lines) if line.startswith("robot "))
+    lines.insert(at + 1, "machine base address 127.0.0.1")
+    model.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    build = robot.tmp / "build_base"
+    robot.racc("compile", str(model), "-o", str(build), "--no-svg", "-q")
+    return build
+
+
 def kill_node(ros: int, node: str) -> float:
     """``kill -9`` of a demo node's process (its body, which getPid shows, ends with it):
     the outermost process whose command line names the node; when."""

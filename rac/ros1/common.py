@@ -16,6 +16,7 @@ from typing import Any
 from urllib.parse import urlparse
 
 from rac.errors import Diagnostic, RacError
+from rac.runtime.bus import Texts
 from rac.runtime.placement import Found, prove_ros1
 from rac.runtime.procs import UNANSWERED
 from rac.runtime.status import Row, rows_from_array
@@ -166,7 +167,7 @@ def log_to_ros(rospy: Any) -> Any:
 
 
 class Ros1Bus:
-    """:class:`rac.runtime.nodes.Bus` over rospy: this process's node, started here.
+    """:class:`rac.runtime.bus.Bus` over rospy: this process's node, started here.
 
     With a ``key`` and a ``role`` it seals and checks racc's messages
     (:class:`rac.runtime.trust.Trust`), as its node name or as ``seal_as`` (an operator)."""
@@ -229,10 +230,11 @@ class Ros1Bus:
 
         self.rospy.Subscriber(topic, DiagnosticArray, receive, queue_size=depth)
 
-    def text_publisher(self, topic: str, depth: int) -> _Texts:
+    def text_publisher(self, topic: str, depth: int) -> Texts:
         from std_msgs.msg import String
 
-        return _Texts(self.rospy.Publisher(topic, String, queue_size=depth), String)
+        pub = self.rospy.Publisher(topic, String, queue_size=depth)
+        return Texts(lambda text: pub.publish(String(data=text)), pub.get_num_connections)
 
     def on_text(
         self,
@@ -333,17 +335,6 @@ def register_again(uri: str) -> tuple[int, int, int]:
     for service, service_uri in srvs:
         master.registerService(caller, service, service_uri, uri)
     return len(pubs), len(subs), len(srvs)
-
-
-class _Texts:
-    def __init__(self, pub: Any, cls: Any) -> None:
-        self._pub, self._cls = pub, cls
-
-    def __call__(self, text: str) -> None:
-        self._pub.publish(self._cls(data=text))
-
-    def listeners(self) -> int:
-        return int(self._pub.get_num_connections())
 
 
 # -- diagnostic statuses ---------------------------------------------------------------------

@@ -16,6 +16,7 @@ from typing import Any
 
 from rac.errors import Diagnostic, RacError
 from rac.ros2.args import ROS_ARGS
+from rac.runtime.bus import Texts
 from rac.runtime.placement import Found, prove_by_cmdline
 from rac.runtime.procs import innermost, node_processes, process_table
 from rac.runtime.status import Row, rows_from_array
@@ -123,7 +124,7 @@ class Session:
     def rows_publisher(
         self, topic: str, depth: int, latched: bool = False, purpose: str = ""
     ) -> Callable[[Sequence[Row]], None]:
-        """:class:`rac.runtime.nodes.Bus`'s publisher of status arrays, reliable."""
+        """:class:`rac.runtime.bus.Bus`'s publisher of status arrays, reliable."""
         from diagnostic_msgs.msg import DiagnosticArray
 
         pub = self.node.create_publisher(DiagnosticArray, topic, reliable(depth, latched))
@@ -154,10 +155,11 @@ class Session:
 
         self.node.create_subscription(DiagnosticArray, topic, receive, reliable(depth, latched))
 
-    def text_publisher(self, topic: str, depth: int) -> _Texts:
+    def text_publisher(self, topic: str, depth: int) -> Texts:
         from std_msgs.msg import String
 
-        return _Texts(self.node.create_publisher(String, topic, reliable(depth)), String)
+        pub = self.node.create_publisher(String, topic, reliable(depth))
+        return Texts(lambda text: pub.publish(String(data=text)), pub.get_subscription_count)
 
     def on_text(
         self,
@@ -203,17 +205,6 @@ class Session:
         except Exception:
             if self.context.ok():
                 raise
-
-
-class _Texts:
-    def __init__(self, pub: Any, cls: Any) -> None:
-        self._pub, self._cls = pub, cls
-
-    def __call__(self, text: str) -> None:
-        self._pub.publish(self._cls(data=text))
-
-    def listeners(self) -> int:
-        return int(self._pub.get_subscription_count())
 
 
 def reliable(depth: int = 10, latched: bool = False) -> Any:

@@ -6,7 +6,7 @@ only on a confirmation sealed by an operator (:mod:`rac.runtime.trust`): the pla
 the run it belongs to, sealed with the robot's secret and the operator's name, on the
 repairer's ``~confirm`` topic.  This module reads the pending plan, sends the confirmation
 and waits for the repairer's answer on ``/repair_log``; it needs no ROS CLI on either
-version.  Transport-free: a :class:`rac.runtime.nodes.Bus` carries it.
+version.  Transport-free: a :class:`rac.runtime.bus.Bus` carries it.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from rac.errors import Diagnostic, RacError
-from rac.runtime.nodes import Bus
+from rac.runtime.bus import Bus
 from rac.runtime.status import REPAIR_LOG, REPAIR_PLAN, Row
 from rac.runtime.trust import CONFIRM, confirm_body
 

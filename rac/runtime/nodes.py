@@ -2,8 +2,8 @@
 both ROS versions.
 
 A node needs little from ROS: publish and receive arrays of statuses, receive a string, log,
-and know when to stop.  :class:`Bus` is that much; ``rac.ros1.common.Ros1Bus`` and
-``rac.ros2.common.Session`` provide it over rospy and rclpy.  What the nodes decide is
+and know when to stop.  :class:`rac.runtime.bus.Bus` is that much; ``rac.ros1.common.Ros1Bus``
+and ``rac.ros2.common.Session`` provide it over rospy and rclpy.  What the nodes decide is
 :mod:`rac.runtime.host`'s, :mod:`rac.runtime.diagnoser`'s and :mod:`rac.runtime.repairer`'s.
 """
 
@@ -13,91 +13,23 @@ import time
 from collections import deque
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Protocol
 
 from rac.diagnosis import Theory
 from rac.passes.observers import DIAGNOSTICS_TOPIC
+from rac.runtime.bus import Bus
 from rac.runtime.diagnoser import EngineLoop
 from rac.runtime.host import HostLoop, ObserverHost, Schedule, ticks
 from rac.runtime.procs import ProcessProbe
 from rac.runtime.repairer import Actuator, LogEntry, RepairExecutor, Settings
 from rac.runtime.routing import Agent
 from rac.runtime.status import DIAGNOSIS, OBSERVATIONS, REPAIR_LOG, REPAIR_PLAN, Row
-from rac.runtime.trust import CONFIRM, Gate, Trust, read_confirm
+from rac.runtime.trust import CONFIRM, read_confirm
 
 POLL_S = 0.05
 STATUS_PERIOD_S = 1.0  # the repairer's status on /diagnostics
 # The engine publishes /diagnosis at least once a second (its heartbeat); a node that has
 # heard none for this long is blind and says so (level 2), and the repairer acts on nothing.
 ENGINE_LOST_S = 3.0
-
-
-class TextPublisher(Protocol):
-    def __call__(self, text: str) -> None: ...
-
-    def listeners(self) -> int:
-        """How many subscribers it is connected to now."""
-        ...
-
-
-class Bus(Protocol):
-    """One ROS node's connection to the graph, as the racc nodes use it.
-
-    ``trust`` seals what the node publishes for a ``purpose`` and holds the gates its
-    subscriptions pass (:mod:`rac.runtime.trust`); a bus without it (a viewer such as
-    ``racc watch``) neither seals nor checks."""
-
-    @property
-    def name(self) -> str:
-        """The node's resolved name, without the leading '/'."""
-        ...
-
-    @property
-    def ok(self) -> bool:
-        """False once the node is asked to stop (Ctrl-C, SIGTERM, ROS shutdown)."""
-        ...
-
-    @property
-    def trust(self) -> Trust | None: ...
-
-    def log(self, level: int, text: str) -> None:
-        """Log at a status level: 0 info, 1 warning, 2 and above error."""
-        ...
-
-    def rows_publisher(
-        self, topic: str, depth: int, latched: bool = False, purpose: str = ""
-    ) -> Callable[[Sequence[Row]], None]:
-        """Publish rows as one ``diagnostic_msgs/DiagnosticArray``; ``latched``: the last
-        array is kept for subscribers that join later; ``purpose``: sealed for it."""
-        ...
-
-    def on_rows(
-        self,
-        topic: str,
-        callback: Callable[[list[Row]], None],
-        depth: int,
-        latched: bool = False,
-        gate: Gate | None = None,
-    ) -> None:
-        """Call ``callback`` with the rows of each array on ``topic``; ``latched``: also
-        receive the array a latched publisher kept; ``gate``: only arrays it admits."""
-        ...
-
-    def text_publisher(self, topic: str, depth: int) -> TextPublisher:
-        """Publish ``std_msgs/String`` texts on ``topic`` (sealed by the caller)."""
-        ...
-
-    def on_text(
-        self,
-        topic: str,
-        callback: Callable[[str, str], None],
-        depth: int,
-        gate: Gate | None = None,
-    ) -> None:
-        """Call ``callback(text, sender)`` with each ``std_msgs/String`` on ``topic``
-        (``~name``: the node's private topic); with a ``gate``, only the sealed texts it
-        admits, without their seal, and their sender (else the sender is "")."""
-        ...
 
 
 def run_observer_node(

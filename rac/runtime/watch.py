@@ -13,7 +13,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 
-from rac.runtime.nodes import Bus
+from rac.runtime.bus import Bus
 from rac.runtime.status import DIAGNOSIS, NO_DIAGNOSIS, OBSERVATIONS, REPAIR_LOG, Row
 
 LEVELS = {0: "ok", 1: "warn", 2: "ERROR", 3: "stale"}

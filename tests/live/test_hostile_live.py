@@ -13,7 +13,7 @@ import subprocess
 import time
 
 from attacks import run_attack
-from live_harness import LiveRobot, everything_observed, kill_node
+from live_harness import LiveRobot, everything_observed, kill_node, placed_build
 from soak_support import all_ok_since, named_since, plans
 
 ATTACK_S = 5.0
@@ -32,16 +32,6 @@ REPORTED = {
 }
 
 
-def placed_build(robot: LiveRobot) -> None:
-    """tedusar on a declared machine ``base`` (127.0.0.1), compiled beside the test's."""
-    model = robot.tmp / "tedusar_base.ram"
-    lines = robot.model.read_text(encoding="utf-8").splitlines()
-    at = next(i for i, line in enumerate(lines) if line.startswith("robot "))
-    lines.insert(at + 1, "machine base address 127.0.0.1")
-    model.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    robot.racc("compile", str(model), "-o", str(robot.tmp / "build_base"), "--no-svg", "-q")
-
-
 def reported(robot: LiveRobot, since: float, node: str, words: str) -> bool:
     with robot.watch.lock:
         return any(
@@ -52,7 +42,7 @@ def reported(robot: LiveRobot, since: float, node: str, words: str) -> bool:
 
 def test_attacks_from_the_graph_make_racc_do_nothing(robot: LiveRobot) -> None:
     watch, ros = robot.watch, robot.ros.version
-    placed_build(robot)
+    build = placed_build(robot)
     other = robot.tmp / "elsewhere"
     other.mkdir(exist_ok=True)
     (other / "model.yaml").write_text(
@@ -64,7 +54,7 @@ def test_attacks_from_the_graph_make_racc_do_nothing(robot: LiveRobot) -> None:
     try:
         robot.wait_demo(60)
         launched = time.time()
-        runtime = robot.launch_runtime(demo, build=robot.tmp / "build_base")
+        runtime = robot.launch_runtime(demo, build=build)
         ready = watch.wait(everything_observed(watch, launched, robot.quick_atoms), 45)
         assert ready is not None, "the runtime did not come up"
         healthy = watch.wait(all_ok_since(watch, launched, robot.quick_atoms), 30)
