@@ -1,0 +1,110 @@
+"""architecture.dot: the Graphviz diagram, drawn with Figure 3.1's conventions.
+
+Hardware are rectangles, nodes ellipses filled by class (SN dark grey, HN grey, N white),
+publish/subscribe arrows carry their topics, dotted lines join a driver to its hardware.
+On top of the dissertation's figure, for a reviewer (docs/diagrams.md):
+
+- nodes are clustered by namespace;
+- a topic only one node touches and that no observer watches, and the infrastructure
+  topics (/rosout, /tf, …) unless observed, are folded into a count on their node
+  ("+87 topics"); :attr:`View.everything` draws them all;
+- what watches each node and topic is shown: the rate of a topic (its GObs), a node's cpu/mem
+  limits and reports, ``~`` for a related pair; an unwatched topic is grey, a component whose
+  fault no observer detects (``racc analyze``'s verdict, passed in :attr:`View.undetected`)
+  is outlined red and dashed;
+- :attr:`View.focus` draws one component's neighbourhood, :attr:`View.health` colours a
+  diagnosis, and :attr:`View.summary` draws one box per namespace for a large model;
+- the legend lists only the symbols the drawing uses.
+
+This module decides *what* is drawn; every string is quoted or escaped here, the template
+holds the fixed text.  Everything follows declaration order: the output is byte-identical
+from run to run.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+
+from rac.ir import Model
+from rac.passes.observers import ObserverSpec
+from rac.targets.coverage import Marks, Watch, component_keys, marks, watches
+from rac.targets.diagram.components import draw_components
+from rac.targets.diagram.scene import Item, Marking, Scene, View
+from rac.targets.diagram.summary import SUMMARY_ABOVE_NODES, draw_summary
+from rac.targets.diagram.text import html_text, quote
+from rac.targets.diagram.topics import MAX_RELATIONS_SHOWN, draw_topics, fold, relation_list
+from rac.targets.diagram.topology import Topology, cluster_of, common_namespace, focus_set
+from rac.targets.diagram.write import write_scene
+
+__all__ = [
+    "MAX_RELATIONS_SHOWN",
+    "SUMMARY_ABOVE_NODES",
+    "View",
+    "emit_diagram",
+    "html_text",
+    "quote",
+]
+
+# A drawing of two or more namespaces is compact (docs/diagrams.md, "Reading it at
+# 1920 × 1080"): top-down, so an arrow's label sits beside it instead of taking a column of
+# its own; nodes are rounded boxes with one line of details, since an ellipse around several
+# lines is twice as wide.  The 31-node warehouse robot went from 2734 × 1324 pt to about
+# 1470 × 1090 pt, its names readable on a 1920 × 1080 screen.
+COMPACT_FROM_CLUSTERS = 2
+
+
+def emit_diagram(model: Model, observers: Iterable[ObserverSpec], view: View) -> str:
+    """The DOT text of ``view`` of ``model``; pure."""
+    summary = view.summary and not view.everything and view.focus is None
+    # The summary shows no single observer: it need not turn 39,000 of them around.
+    watched = {} if summary and view.health is None else watches(model, observers)
+    health = marks(model, watched, view.health) if view.health is not None else None
+    keys = component_keys(model)
+    undetected: dict[str, tuple[str, ...]] = {}
+    for component, modes in view.undetected or ():
+        undetected[keys.get(component, component)] = modes
+    if summary:
+        scene, clusters = draw_summary(model, undetected, health), dict[str, list[Item]]()
+    else:
+        scene, clusters = detailed(model, view, watched, undetected, health)
+    if view.undetected is None and not view.summary:
+        scene.notes.append("faults no observer detects: not analysed (racc diagram marks them)")
+    if view.health is not None:
+        scene.notes.insert(0, view.health.title)
+    return write_scene(model, scene, clusters, view.summary and not view.everything)
+
+
+def detailed(
+    model: Model,
+    view: View,
+    watched: Mapping[str, list[Watch]],
+    undetected: Mapping[str, tuple[str, ...]],
+    health: Marks | None,
+) -> tuple[Scene, dict[str, list[Item]]]:
+    top = Topology(model)
+    scene = Scene()
+    drawn: set[str] | None = None
+    if view.focus is not None:
+        drawn = focus_set(model, top, view.focus, view.depth)
+        if drawn is None:
+            raise ValueError(f"no node, hardware or topic named {view.focus!r}")
+        scene.notes.append(f"focus: {view.focus}, {view.depth} hop(s) up- and downstream")
+    nodes = [n for n in model.nodes if drawn is None or n.name.value in drawn]
+    shown = {n.name.value for n in nodes}
+    prefix = scene.prefix = common_namespace([n.name.value for n in nodes])
+    if prefix:
+        scene.notes.append(f"names under {prefix}/ are drawn without it")
+    spaces = {cluster_of(n.name.value, prefix) for n in nodes}
+    scene.compact = not view.everything and len(spaces - {""}) >= COMPACT_FROM_CLUSTERS
+
+    visible, folded = fold(top, shown, drawn is not None, watched, view.everything, scene)
+    marking = Marking(watched, undetected, health, view.focus)
+    draw_components(model, nodes, scene, marking, folded)
+    draw_topics(top, visible, shown, scene, watched, health, prefix)
+    relation_list(model, scene)
+    clusters: dict[str, list[Item]] = {}
+    for item in scene.items:
+        clusters.setdefault(item.cluster, []).append(item)
+    if len(clusters) > 1 or "" not in clusters:
+        scene.legend["namespace"] = None
+    return scene, clusters
