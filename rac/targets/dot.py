@@ -11,7 +11,9 @@ from rac.pipeline import Compiled
 from rac.targets.diagram import (
     MAX_RELATIONS_SHOWN,
     SUMMARY_ABOVE_NODES,
+    Drawing,
     View,
+    draw_diagram,
     emit_diagram,
     html_text,
     quote,
@@ -21,7 +23,9 @@ from rac.targets.options import EmitOptions
 __all__ = [
     "MAX_RELATIONS_SHOWN",
     "SUMMARY_ABOVE_NODES",
+    "Drawing",
     "View",
+    "draw_diagram",
     "emit_diagram",
     "emit_dot",
     "html_text",

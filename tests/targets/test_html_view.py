@@ -112,9 +112,13 @@ def test_a_real_browser_searches_and_shows_a_tooltip(tmp_path: Path) -> None:
     # search: the node, the topic box /robot_41/amcl_pose and the arrows to and from them
     # match, the rest is dimmed
     assert re.search(r'<svg [^>]*class="searching"', dom)
-    hits = re.findall(r'<g id="node\d+" class="node hit" data-name="([^"]+)"', dom)
-    assert sorted(hits) == ["/robot_41/amcl_pose", AMCL]
-    arrows = re.findall(r'<g id="edge\d+" class="edge hit" data-name="([^"]+)"', dom)
+    found = re.findall(
+        r'<g id="(?:node|edge)\d+" class="(?:node|edge) hit" data-name="([^"]+)"', dom
+    )
+    hits = sorted({name for name in found if " → " not in name})
+    assert hits == ["/robot_41/amcl_pose", AMCL]
+    # an arrow's two edges and its label are one match, named by its ends
+    arrows = {name for name in found if " → " in name}
     assert "/robot_41/localization/map_server → /robot_41/localization/amcl" in arrows
     assert f'<span id="count">{len(hits) + len(arrows)} matches</span>' in dom
     # the tooltip: the component's observers
@@ -135,10 +139,10 @@ def test_a_real_browser_searches_and_shows_a_tooltip(tmp_path: Path) -> None:
 def test_a_topic_on_an_arrow_is_found_and_nothing_says_so(tmp_path: Path) -> None:
     page = written_page(tmp_path)
     dom = browser_dom(page, "#search=cmd_vel_smoothed", tmp_path)
-    arrows = re.findall(r'<g id="edge\d+" class="edge hit" data-name="([^"]+)"', dom)
-    assert arrows == [
-        "/robot_41/navigation/velocity_smoother → /robot_41/navigation/collision_monitor"
-    ]
+    found = re.findall(r'<g id="(?:node|edge)\d+" class="(node|edge) hit" data-name="([^"]+)"', dom)
+    arrow = "/robot_41/navigation/velocity_smoother → /robot_41/navigation/collision_monitor"
+    # the arrow's label (a node) and its two edges
+    assert sorted(found) == [("edge", arrow), ("edge", arrow), ("node", arrow)]
     assert '<span id="count">1 match</span>' in dom
     dom = browser_dom(page, "#search=no_such_thing", tmp_path)
     assert '<span id="count">0 matches</span>' in dom

@@ -24,22 +24,34 @@ from run to run.
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
 
 from rac.ir import Model
 from rac.passes.observers import ObserverSpec
 from rac.targets.coverage import Marks, Watch, component_keys, marks, watches
 from rac.targets.diagram.components import draw_components
-from rac.targets.diagram.scene import Item, Marking, Scene, View
-from rac.targets.diagram.summary import SUMMARY_ABOVE_NODES, draw_summary
+from rac.targets.diagram.flow import draw_flow
+from rac.targets.diagram.layers import first_layer
+from rac.targets.diagram.scene import Item, Marking, Scene, View, place_labels
+from rac.targets.diagram.summary import SUMMARY_ABOVE_NODES, draw_outside, draw_summary
 from rac.targets.diagram.text import html_text, quote
 from rac.targets.diagram.topics import MAX_RELATIONS_SHOWN, draw_topics, fold, relation_list
-from rac.targets.diagram.topology import Topology, cluster_of, common_namespace, focus_set
+from rac.targets.diagram.topology import (
+    Topology,
+    cluster_of,
+    common_namespace,
+    focus_namespace,
+    focus_set,
+)
 from rac.targets.diagram.write import write_scene
 
 __all__ = [
     "MAX_RELATIONS_SHOWN",
+    "NODE_VIEW_ABOVE_NODES",
     "SUMMARY_ABOVE_NODES",
+    "Drawing",
     "View",
+    "draw_diagram",
     "emit_diagram",
     "html_text",
     "quote",
@@ -51,10 +63,26 @@ __all__ = [
 # lines is twice as wide.  The 31-node warehouse robot went from 2734 × 1324 pt to about
 # 1470 × 1090 pt, its names readable on a 1920 × 1080 screen.
 COMPACT_FROM_CLUSTERS = 2
+# Above this many drawn nodes the default is the node view (rac.targets.diagram.flow).
+NODE_VIEW_ABOVE_NODES = 12
+
+
+@dataclass(frozen=True, slots=True)
+class Drawing:
+    """A drawing's DOT text and what it shows."""
+
+    text: str
+    nodes: int  # the model's nodes drawn (a summary: all of them, in its boxes)
+    view: str  # "topics", "nodes" or "summary"
 
 
 def emit_diagram(model: Model, observers: Iterable[ObserverSpec], view: View) -> str:
     """The DOT text of ``view`` of ``model``; pure."""
+    return draw_diagram(model, observers, view).text
+
+
+def draw_diagram(model: Model, observers: Iterable[ObserverSpec], view: View) -> Drawing:
+    """``view`` of ``model`` (docs/diagrams.md); pure."""
     summary = view.summary and not view.everything and view.focus is None
     # The summary shows no single observer: it need not turn 39,000 of them around.
     watched = {} if summary and view.health is None else watches(model, observers)
@@ -65,13 +93,16 @@ def emit_diagram(model: Model, observers: Iterable[ObserverSpec], view: View) ->
         undetected[keys.get(component, component)] = modes
     if summary:
         scene, clusters = draw_summary(model, undetected, health), dict[str, list[Item]]()
+        drawn, kind = len(model.nodes), "summary"
     else:
         scene, clusters = detailed(model, view, watched, undetected, health)
-    if view.undetected is None and not view.summary:
+        drawn, kind = scene.drawn, ("nodes" if scene.by_nodes else "topics")
+    if view.undetected is None:
         scene.notes.append("faults no observer detects: not analysed (racc diagram marks them)")
     if view.health is not None:
         scene.notes.insert(0, view.health.title)
-    return write_scene(model, scene, clusters, view.summary and not view.everything)
+    text = write_scene(model, scene, clusters, view.summary and not view.everything)
+    return Drawing(text, drawn, kind)
 
 
 def detailed(
@@ -84,24 +115,45 @@ def detailed(
     top = Topology(model)
     scene = Scene()
     drawn: set[str] | None = None
+    space: str | None = None
     if view.focus is not None:
-        drawn = focus_set(model, top, view.focus, view.depth)
+        space = focus_namespace(model, top, view.focus)
+        depth = view.depth if view.depth is not None else (0 if space else 1)
+        drawn = focus_set(model, top, view.focus, depth)
         if drawn is None:
-            raise ValueError(f"no node, hardware or topic named {view.focus!r}")
-        scene.notes.append(f"focus: {view.focus}, {view.depth} hop(s) up- and downstream")
+            raise ValueError(f"no node, hardware, topic or namespace named {view.focus!r}")
+        what = f"namespace {space}" if space else view.focus
+        scene.notes.append(f"focus: {what}, {depth} hop(s) up- and downstream")
     nodes = [n for n in model.nodes if drawn is None or n.name.value in drawn]
     shown = {n.name.value for n in nodes}
     prefix = scene.prefix = common_namespace([n.name.value for n in nodes])
     if prefix:
         scene.notes.append(f"names under {prefix}/ are drawn without it")
     spaces = {cluster_of(n.name.value, prefix) for n in nodes}
-    scene.compact = not view.everything and len(spaces - {""}) >= COMPACT_FROM_CLUSTERS
+    by_nodes = view.level == "nodes" or (
+        view.level == "auto" and not view.everything and len(nodes) > NODE_VIEW_ABOVE_NODES
+    )
+    scene.drawn, scene.by_nodes = len(nodes), by_nodes
+    clustered = len(spaces - {""}) >= COMPACT_FROM_CLUSTERS
+    scene.compact = not view.everything and (clustered or by_nodes)
+    # Compact drawings go top-down (see COMPACT_FROM_CLUSTERS): the tugger of
+    # tests/tug/tugger.yaml by nodes was 2603 × 1008 pt left to right, 1905 × 901 top-down.
+    scene.rankdir = "TB" if scene.compact else "LR"
 
     visible, folded = fold(top, shown, drawn is not None, watched, view.everything, scene)
     marking = Marking(watched, undetected, health, view.focus)
     draw_components(model, nodes, scene, marking, folded)
-    draw_topics(top, visible, shown, scene, watched, health, prefix)
+    if space is not None:  # the namespaces around it as the summary's boxes
+        visible = draw_outside(model, top, shown, scene, visible)
+    if by_nodes:
+        draw_flow(model, top, visible, shown, scene, watched, health, prefix)
+    else:
+        draw_topics(model, top, visible, shown, scene, watched, health, prefix)
     relation_list(model, scene)
+    place_labels(scene)
+    if clustered:  # each namespace stays together: a first layer across them stretched
+        scene.sources = []  # the drivers' cluster down the page (bench/diagram.py)
+    scene.sources = first_layer(model, scene.sources, (item.id for item in scene.items))
     clusters: dict[str, list[Item]] = {}
     for item in scene.items:
         clusters.setdefault(item.cluster, []).append(item)

@@ -9,7 +9,7 @@ from rac.fmt import format_limits, format_mem, format_number
 from rac.ir import Model, Node
 from rac.targets.coverage import Marks, Watch
 from rac.targets.diagram.scene import CLASS_NAMES, COLOURS, EDGE_STYLE, STYLE, Item, Marking, Scene
-from rac.targets.diagram.text import html_text, quote
+from rac.targets.diagram.text import elide, html_text, quote, shown
 from rac.targets.diagram.topology import cluster_of, node_class, short
 
 NAME_GAP = '<BR/><FONT POINT-SIZE="3"> </FONT><BR/>'
@@ -74,7 +74,7 @@ def node_item(
         attrs += f', penwidth=3, color="{COLOURS["focus"]}"'
     shown = name[len(cluster) + 1 :] if cluster else short(name, scene.prefix)
     label = node_label(shown, lines, warn, dark=dark_fill(name, kind, marking.health))
-    return Item(name, attrs, label, "\n".join(tip), cluster)
+    return Item(name, attrs, label, "\n".join(tip), cluster, shown)
 
 
 def dark_fill(name: str, kind: str, health: Marks | None) -> bool:
@@ -153,8 +153,8 @@ def marked(
 def node_label(name: str, lines: list[str], warn: str, dark: bool) -> str:
     """The name alone (quoted), or an HTML label with small lines under it."""
     if not lines and not warn:
-        return quote(name)
-    body = [html_text(name)]
+        return quote(elide(name))
+    body = [shown(name)]
     body += [f'<FONT POINT-SIZE="8">{html_text(line)}</FONT>' for line in lines]
     if warn:
         colour = "#ffcdd2" if dark else COLOURS["undetected"]

@@ -35,6 +35,14 @@ LEGEND: dict[str, tuple[str, str]] = {
         '<TD WIDTH="40" HEIGHT="16" FIXEDSIZE="TRUE">──▶</TD>',
         "publisher to subscriber: topic @ rate (rate observed)",
     ),
+    "pair": (
+        '<TD WIDTH="40" HEIGHT="16" FIXEDSIZE="TRUE">──▶</TD>',
+        "node to node: its topic, or N topics: the first (all in the tooltip)",
+    ),
+    "feedback": (
+        '<TD WIDTH="40" HEIGHT="16" FIXEDSIZE="TRUE">◀──</TD>',
+        "against the flow: the arrow that closes a loop",
+    ),
     "topic": (
         '<TD BORDER="1" STYLE="rounded" COLOR="#7f9fbf" BGCOLOR="#e8f0f8" WIDTH="40" '
         'HEIGHT="16" FIXEDSIZE="TRUE"><FONT COLOR="#1f4e79">/t</FONT></TD>',
@@ -44,6 +52,16 @@ LEGEND: dict[str, tuple[str, str]] = {
         '<TD BORDER="1" STYLE="dashed" COLOR="#7f9fbf" BGCOLOR="#e8f0f8" WIDTH="40" '
         'HEIGHT="16" FIXEDSIZE="TRUE"><FONT COLOR="#1f4e79">/t</FONT></TD>',
         "topic nobody publishes or nobody reads",
+    ),
+    "alone": (
+        '<TD BORDER="1" STYLE="rounded" COLOR="#7f9fbf" BGCOLOR="#e8f0f8" WIDTH="40" '
+        'HEIGHT="16" FIXEDSIZE="TRUE"><FONT COLOR="#1f4e79">/tf</FONT></TD>',
+        "observed infrastructure topic: how many publish and read it",
+    ),
+    "hub": (
+        '<TD BORDER="1" STYLE="rounded,dashed" WIDTH="40" HEIGHT="16" FIXEDSIZE="TRUE">'
+        '<FONT POINT-SIZE="8">hub</FONT></TD>',
+        "a hub, drawn again beside the nodes it talks to",
     ),
     "unwatched": (
         f'<TD WIDTH="40" HEIGHT="16" FIXEDSIZE="TRUE"><FONT COLOR="{COLOURS["unwatched"]}">'

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from rac.targets.coverage import Health, Marks, Watch
+from rac.targets.diagram.text import bounded, quote
 
 COLOURS = {
     "watched": "#1f4e79",  # a topic an observer watches: the dissertation's blue
@@ -52,8 +53,13 @@ class View:
 
     everything: bool = False  # fold nothing, never summarise
     focus: str | None = None  # a node, hardware or topic name: draw its neighbourhood
-    depth: int = 1  # node-to-node hops around the focus, upstream and downstream
+    # node-to-node hops around the focus, upstream and downstream; None: 1 around a node,
+    # hardware or topic, 0 around a namespace (its neighbours are drawn as namespace boxes)
+    depth: int | None = None
     summary: bool = False  # one box per namespace
+    # "nodes": one arrow per pair of nodes (the node view), "topics": every topic drawn on
+    # its arrows, "auto": the node view above NODE_VIEW_ABOVE_NODES drawn nodes
+    level: str = "auto"
     # Per component (as named or mangled), the fault modes no observer detects
     # (rac.analysis.undetected); None when the analysis was not run.
     undetected: tuple[tuple[str, tuple[str, ...]], ...] | None = None
@@ -69,6 +75,8 @@ class Item:
     label: str
     tooltip: str
     cluster: str = ""
+    shown: str = ""  # the name as drawn (a hub's copies repeat it)
+    ends: tuple[str, str] | None = None  # an arrow's label: the arrow's tail and head
 
 
 @dataclass(slots=True)
@@ -81,7 +89,11 @@ class Scene:
     notes: list[str] = field(default_factory=list)  # caption lines (plain text)
     relations: list[str] = field(default_factory=list)  # the related pairs, as written
     prefix: str = ""  # the namespace every drawn node shares, left out of the names
-    compact: bool = False  # top-down, boxes, one line of details (COMPACT_FROM_CLUSTERS)
+    compact: bool = False  # boxes, one line of details (COMPACT_FROM_CLUSTERS, node view)
+    rankdir: str = "LR"  # the direction of data flow: left to right, or top to bottom (TB)
+    sources: list[str] = field(default_factory=list)  # drawn ids on the first layer
+    drawn: int = 0  # the model's nodes drawn
+    by_nodes: bool = False  # the node view (rac.targets.diagram.flow)
 
 
 @dataclass(frozen=True, slots=True)
@@ -92,3 +104,51 @@ class Marking:
     undetected: Mapping[str, tuple[str, ...]]
     health: Marks | None
     focus: str | None
+
+
+LABEL_STYLE = 'shape=plaintext, margin="0.03,0.01", width=0, height=0, fontsize=9'
+ARROW = " → "  # a labelled arrow's label is the node "TAIL → HEAD": '→' is in no ROS name
+
+
+def arrow(
+    scene: Scene,
+    tail: str,
+    head: str,
+    attrs: str,
+    backwards: bool = False,
+    label: tuple[str, str, str] | None = None,
+) -> None:
+    """An arrow from drawn id ``tail`` to ``head``.
+
+    A feedback arrow (``backwards``) is written head to tail, so that Graphviz ranks it with
+    the flow, and drawn reversed.  A labelled arrow (``label``: its HTML, tooltip and the
+    name of the arrow) is two edges through a node that is the label: Graphviz routes other
+    arrows around a node, but lets them cross an edge's own label (issue 37: ``/scan @ 10
+    Hz`` sat on the ekf → controller arrow).  The label stands on its arrow, in the
+    namespace of both ends if they share one.
+    """
+    if label is None:
+        if backwards:
+            scene.edges.append(f"  {quote(head)} -> {quote(tail)} [dir=back, {attrs}];\n")
+        else:
+            scene.edges.append(f"  {quote(tail)} -> {quote(head)} [{attrs}];\n")
+        return
+    html, tip, name = label
+    name = ARROW.join(bounded(end) for end in name.split(ARROW, 1))
+    scene.items.append(Item(name, LABEL_STYLE, f"<{html}>", tip, ends=(tail, head)))
+    via = quote(name)
+    if backwards:
+        scene.edges.append(f"  {quote(head)} -> {via} [dir=back, {attrs}];\n")
+        scene.edges.append(f"  {via} -> {quote(tail)} [dir=none, {attrs}];\n")
+    else:
+        scene.edges.append(f"  {quote(tail)} -> {via} [dir=none, {attrs}];\n")
+        scene.edges.append(f"  {via} -> {quote(head)} [{attrs}];\n")
+
+
+def place_labels(scene: Scene) -> None:
+    """Each arrow's label in the namespace cluster both its ends share, else outside."""
+    owner = {item.id: item.cluster for item in scene.items}
+    for item in scene.items:
+        if item.ends is not None:
+            tail, head = (owner.get(end, "") for end in item.ends)
+            item.cluster = tail if tail == head else ""

@@ -6,15 +6,28 @@ from collections.abc import Mapping
 
 from rac.ir import Model, Node
 from rac.targets.coverage import Marks
-from rac.targets.diagram.scene import COLOURS, EDGE_STYLE, STYLE, Item, Scene
-from rac.targets.diagram.text import html_text, quote
+from rac.targets.diagram.layers import feedback, flow_order
+from rac.targets.diagram.scene import (
+    ARROW,
+    COLOURS,
+    EDGE_STYLE,
+    STYLE,
+    Item,
+    Scene,
+    arrow,
+    place_labels,
+)
+from rac.targets.diagram.text import elide, html_text, quote, shown
 from rac.targets.diagram.topology import Topology, common_namespace, short
 
-# Above this many nodes, architecture.dot is the summary: one box per namespace (a full
-# drawing of 10,000 nodes took Graphviz 24 s and 10 MB of SVG that nobody can read).
-SUMMARY_ABOVE_NODES = 300
+# Above this many nodes, the default drawing is the summary: one box per namespace, each
+# opened by --focus.  The node view of bench/diagram.py's synthetic robots fits 3,000 × 2,000
+# pt up to about 60 nodes in one namespace and 30 in four; at 100 nodes it was 4,160 pt wide
+# in one namespace and 7,213 pt in six, at 300 nodes 14,968 pt: pan and zoom, or a summary.
+SUMMARY_ABOVE_NODES = 100
 # The summary draws at most this many arrows per namespace box, the heaviest flows.
 SUMMARY_ARROWS_PER_BOX = 2
+GROUP_ID = "group:"  # a namespace box's id: ':' is in no ROS name
 
 
 def draw_summary(
@@ -30,6 +43,7 @@ def draw_summary(
         scene.items.append(group_item(g, members, inside.get(g, 0), undetected, health, scene))
     scene.legend["group"] = None
     flow_edges(scene, crossing, len(groups))
+    place_labels(scene)
     why = f" (over {SUMMARY_ABOVE_NODES} nodes)" if len(model.nodes) > SUMMARY_ABOVE_NODES else ""
     scene.notes.append(
         f"summary of {len(model.nodes):,} nodes in {len(groups):,} namespaces{why}; "
@@ -95,8 +109,10 @@ def group_item(
         lines.append(f"{hit} diagnosed")
         attrs += f', fillcolor="{COLOURS["suspect"]}"'
         scene.legend["suspect"] = None
-    label = "<" + "<BR/>".join([f"<B>{html_text(group)}</B>", *map(html_text, lines)]) + ">"
-    return Item("group:" + group, attrs, label, group)
+    lines.append(f"--focus {elide(group)} opens it")
+    label = "<" + "<BR/>".join([f"<B>{shown(group)}</B>", *map(html_text, lines)]) + ">"
+    tip = f"{group}: racc diagram MODEL --focus {group} draws its nodes"
+    return Item(GROUP_ID + group, attrs, label, tip)
 
 
 def flow_edges(scene: Scene, crossing: Mapping[tuple[str, str], int], boxes: int) -> None:
@@ -110,11 +126,54 @@ def flow_edges(scene: Scene, crossing: Mapping[tuple[str, str], int], boxes: int
         scene.notes.append(
             f"{len(ranked) - limit:,} weaker flows between namespaces (≤ {least} topics) not drawn"
         )
+    boxes_in_order = list(dict.fromkeys(g for pair in crossing for g in pair))
+    order = flow_order(boxes_in_order, drawn)  # the namespaces by data flow, as the nodes
+    back = feedback(order, drawn)
     for (a, b), n in crossing.items():
         if (a, b) not in drawn:
             continue
-        scene.edges.append(
-            f"  {quote('group:' + a)} -> {quote('group:' + b)} [{EDGE_STYLE['group_flow']}, "
-            f"label={quote(f'{n:,} topics' if n != 1 else '1 topic')}, penwidth="
-            f"{min(1 + n / 20, 4):.1f}, tooltip={quote(f'{a} → {b}: {n} topics')}];\n"
-        )
+        text = f"{n:,} topics" if n != 1 else "1 topic"
+        attrs = f"{EDGE_STYLE['group_flow']}, penwidth={min(1 + n / 20, 4):.1f}"
+        tip = f"{a}{ARROW}{b}: {text}"
+        named = (html_text(text), tip, f"{GROUP_ID}{a}{ARROW}{GROUP_ID}{b}")
+        tail, head = GROUP_ID + a, GROUP_ID + b
+        arrow(scene, tail, head, f"{attrs}, tooltip={quote(tip)}", (a, b) in back, named)
+    if back:
+        scene.legend["feedback"] = None
+
+
+def draw_outside(
+    model: Model, top: Topology, drawn: set[str], scene: Scene, visible: list[str]
+) -> list[str]:
+    """A namespace opened with ``--focus``: the namespaces around it as the summary's boxes,
+    an arrow per box and drawn node, labelled with the topics between them.  Returns the
+    topics still to draw: those that do not cross to a box."""
+    groups = namespace_groups(model)
+    owner = {n.name.value: g for g, members in groups.items() for n in members}
+    outside = {n: g for n, g in owner.items() if n not in drawn}
+    inflow: dict[tuple[str, str], list[str]] = {}  # (box, node) -> topics
+    for name in top.names:
+        pubs = top.publishers.get(name, ())
+        subs = top.subscribers.get(name, [])
+        for p in pubs:
+            for s in subs:
+                if p in outside and s in drawn:
+                    inflow.setdefault((GROUP_ID + outside[p], s), []).append(name)
+                elif p in drawn and s in outside:
+                    inflow.setdefault((p, GROUP_ID + outside[s]), []).append(name)
+    crossing = {t for topics in inflow.values() for t in topics}
+    boxes = dict.fromkeys(end for pair in inflow for end in pair if end.startswith(GROUP_ID))
+    inside, _ = flows(model, owner)
+    for box in boxes:
+        group = box[len(GROUP_ID) :]
+        item = group_item(group, groups[group], inside.get(group, 0), {}, None, scene)
+        scene.items.append(item)
+    if boxes:
+        scene.legend["group"] = None
+    for (tail, head), topics in inflow.items():  # unlabelled: 25 labels in a row were a wall
+        unique = list(dict.fromkeys(topics))
+        tip = f"{tail.removeprefix(GROUP_ID)}{ARROW}{head.removeprefix(GROUP_ID)}: "
+        tip += ", ".join(unique)
+        width = f"penwidth={min(1 + len(unique) / 5, 3):.1f}"
+        arrow(scene, tail, head, f"{EDGE_STYLE['group_flow']}, {width}, tooltip={quote(tip)}")
+    return [t for t in visible if t not in crossing]

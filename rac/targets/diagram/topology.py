@@ -53,10 +53,25 @@ class Topology:
         )
 
 
+def focus_namespace(model: Model, top: Topology, focus: str) -> str | None:
+    """The namespace ``focus`` names (``/robot_41/drivers``, a trailing ``/`` allowed), if it
+    names no node, hardware or topic and some node lives under it."""
+    if focus in top.topics or focus in top.publishers or focus in top.subscribers:
+        return None
+    names = {n.name.value for n in model.nodes} | {h.name.value for h in model.hardware}
+    space = focus.rstrip("/")
+    if focus in names or not space.startswith("/"):
+        return None
+    inside = any(n.name.value.startswith(space + "/") for n in model.nodes)
+    return space if inside else None
+
+
 def focus_set(model: Model, top: Topology, focus: str, depth: int) -> set[str] | None:
-    """The nodes within ``depth`` hops upstream or downstream of ``focus``; None: unknown."""
+    """The nodes within ``depth`` hops upstream or downstream of ``focus`` (a node, a
+    device's driver, a topic's ends, or every node of a namespace); None: unknown."""
     by_node = model.node_by_name()
     drivers = {h.value: n.name.value for n in model.nodes for h in n.drives}
+    space = focus_namespace(model, top, focus)
     if focus in by_node:
         start = {focus}
     elif focus in drivers:
@@ -64,6 +79,8 @@ def focus_set(model: Model, top: Topology, focus: str, depth: int) -> set[str] |
     elif focus in top.publishers or focus in top.subscribers or focus in top.topics:
         ends = [*top.publishers.get(focus, ()), *top.subscribers.get(focus, [])]
         start, depth = set(ends), max(depth - 1, 0)
+    elif space is not None:
+        start = {n.name.value for n in model.nodes if n.name.value.startswith(space + "/")}
     else:
         return None
     reads = {n.name.value: [r.value for r in n.subscribes] for n in model.nodes}
@@ -98,3 +115,8 @@ def short(name: str, prefix: str) -> str:
 def cluster_of(name: str, prefix: str) -> str:
     space = namespace(name)
     return "" if space == prefix else space
+
+
+def count_text(n: int, noun: str) -> str:
+    """``1 reader``, ``3 readers``."""
+    return f"{n:,} {noun}" if n == 1 else f"{n:,} {noun}s"

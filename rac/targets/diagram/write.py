@@ -7,13 +7,15 @@ from collections.abc import Mapping
 from rac.ir import Model
 from rac.targets.diagram.legend import legend_rows, relation_rows
 from rac.targets.diagram.scene import Item, Scene
-from rac.targets.diagram.text import html_text, quote
+from rac.targets.diagram.text import elide, fits, html_text, quote, shown
 from rac.targets.diagram.topology import namespace
 from rac.targets.templating import render
 
 # dot's classic ranking of many clusters fails ("trouble in init_rank": a 300-node robot in
 # 37 namespaces) or takes long; newrank does not, at the price of a wider drawing of a few.
 NEWRANK_ABOVE_CLUSTERS = 12
+# What the template's caption holds besides the texts: its tables, a row per note (bytes).
+CAPTION_MARKUP = " " * 2000
 
 
 def node_statement(item: Item, indent: str) -> str:
@@ -49,7 +51,8 @@ def cluster_text(clusters: Mapping[str, list[Item]], prefix: str) -> str:
             shown = child[len(space or shown_from.get(child, "")) + 1 :] or child
             out.append(
                 f"{indent}subgraph {quote('cluster_' + child)} {{\n"
-                f'{indent}  label={quote(shown)}; tooltip={quote(child)}; style="rounded,filled"; '
+                f"{indent}  label={quote(elide(shown))}; tooltip={quote(child)}; "
+                'style="rounded,filled"; '
                 f'fillcolor="#f7f9fa"; color="#b0bec5"; fontsize=10; fontcolor="#455a64";\n'
             )
             out += body(child, depth + 1)
@@ -64,16 +67,33 @@ def write_scene(
 ) -> str:
     if not clusters:
         clusters = {"": scene.items}
+    caption = shown(f"robot {model.name.value}")
+    notes = [html_text(n) for n in scene.notes]
+    legend = legend_rows(scene.legend)
+    relations = relation_rows(scene.relations)
+    # The caption is one HTML-like label: within Graphviz's limit whatever the model's names
+    # (rac.targets.diagram.text); the related signals give way first, then the notes.
+    while not fits(CAPTION_MARKUP + "".join([caption, *notes, *legend, *relations])):
+        if len(scene.relations) > 1:
+            scene.relations = scene.relations[: len(scene.relations) // 2]
+            relations = relation_rows([*scene.relations, "(more: racc diagram --all)"])
+        elif notes:
+            notes.pop()
+        else:
+            relations = []
+            break
     return render(
         "architecture.dot.j2",
         name=quote(model.name.value),
-        caption=html_text(f"robot {model.name.value}"),
-        notes=[html_text(n) for n in scene.notes],
-        legend=legend_rows(scene.legend),
-        relations=relation_rows(scene.relations),
+        caption=caption,
+        notes=notes,
+        legend=legend,
+        relations=relations,
         statements=cluster_text(clusters, scene.prefix),
-        newrank=len(clusters) > NEWRANK_ABOVE_CLUSTERS or scene.compact,
+        newrank=len(clusters) > NEWRANK_ABOVE_CLUSTERS or scene.compact or bool(scene.sources),
         compact=scene.compact,
+        rankdir=scene.rankdir,
+        sources=" ".join(quote(s) + ";" for s in scene.sources),
         edges="".join(scene.edges),
         summary=summary,
     )
