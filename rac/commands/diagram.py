@@ -106,8 +106,8 @@ def register(sub: Any) -> None:
     parser.add_argument(
         "--summary",
         action="store_true",
-        help="one box per namespace (default: only above "
-        f"{_summary_nodes()} nodes, as racc compile does)",
+        help="one box per namespace (default: above "
+        f"{_summary_nodes()} nodes in two namespaces or more, as racc compile does)",
     )
     parser.add_argument(
         "--analysis",
@@ -171,7 +171,7 @@ def _node_view_nodes() -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rac.targets.dot import SUMMARY_ABOVE_NODES, View, draw_diagram
+    from rac.targets.dot import View, draw_diagram, summarised
 
     started = time.perf_counter()
     suffix = check_suffix(args.output)
@@ -180,7 +180,7 @@ def run(args: argparse.Namespace) -> int:
     if args.focus is not None:
         check_focus(compiled, args.focus)
     summary = not args.everything and args.focus is None and args.level is None
-    summary = summary and (args.summary or len(model.nodes) > SUMMARY_ABOVE_NODES)
+    summary = summary and (args.summary or summarised(model))
     theory = theory_of(compiled)
     health = _health(args, compiled, theory)
     undetected = None

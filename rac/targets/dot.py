@@ -17,6 +17,7 @@ from rac.targets.diagram import (
     emit_diagram,
     html_text,
     quote,
+    summarised,
 )
 from rac.targets.options import EmitOptions
 
@@ -30,11 +31,11 @@ __all__ = [
     "emit_dot",
     "html_text",
     "quote",
+    "summarised",
 ]
 
 
 def emit_dot(compiled: Compiled, options: EmitOptions) -> str:
-    """architecture.dot: the reviewer's view, or the summary above SUMMARY_ABOVE_NODES nodes."""
-    summary = len(compiled.model.nodes) > SUMMARY_ABOVE_NODES
-    view = View(summary=summary, undetected=options.undetected)
+    """architecture.dot: the reviewer's view, or the summary of a large robot (summarised)."""
+    view = View(summary=summarised(compiled.model), undetected=options.undetected)
     return emit_diagram(compiled.model, compiled.observers, view)

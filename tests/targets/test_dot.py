@@ -308,9 +308,11 @@ def test_parallel_topics_share_one_arrow_and_a_long_list_is_cut() -> None:
 
 
 def test_nodes_are_clustered_by_namespace_below_the_shared_prefix(warehouse: Model) -> None:
-    text = emit(warehouse)
+    """The topic view clusters the namespaces; the node view (the warehouse's default) names
+    them in each node's name: around clusters, Graphviz routed arrows through nodes."""
+    text = view_of(warehouse, level="topics")
     graph = parse(text)
-    clusters = {s.get_name(): s for s in graph.get_subgraphs()}
+    clusters = {s.get_name(): s for s in graph.get_subgraphs() if "cluster_" in s.get_name()}
     assert set(clusters) == {
         quote(f"cluster_/robot_41/{ns}")
         for ns in ("drivers", "localization", "navigation", "perception", "mission", "system")
@@ -325,6 +327,11 @@ def test_nodes_are_clustered_by_namespace_below_the_shared_prefix(warehouse: Mod
     assert plc == ["plc_bridge", "15 % · 128 MB · +91"]
     assert "reports base" in nodes['"/robot_41/drivers/can_driver"']["tooltip"]
     assert "names under /robot_41/ are drawn without it" in caption(text)
+    by_nodes = emit(warehouse)
+    assert "cluster_" not in by_nodes
+    plc = text_of(all_nodes(parse(by_nodes))['"/robot_41/drivers/plc_bridge"']["label"])
+    assert plc == ["drivers/plc_bridge", "15 % · 128 MB · +91"]
+    assert "names under /robot_41/ are drawn without it" in caption(by_nodes)
 
 
 def test_the_warehouse_is_readable_size(warehouse: Model) -> None:

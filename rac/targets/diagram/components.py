@@ -29,7 +29,7 @@ def draw_components(
     for node in nodes:
         kind = node_class(node, switchable, set(hardware)) if node.drives else "n"
         name = node.name.value
-        cluster = cluster_of(name, scene.prefix)
+        cluster = cluster_of(name, scene.prefix) if scene.clusters else ""
         scene.items.append(node_item(node, kind, cluster, scene, marking, folded.get(name, 0)))
         for h in node.drives:
             if h.value in hardware and h.value not in driven:

@@ -94,6 +94,7 @@ class Scene:
     sources: list[str] = field(default_factory=list)  # drawn ids on the first layer
     drawn: int = 0  # the model's nodes drawn
     by_nodes: bool = False  # the node view (rac.targets.diagram.flow)
+    clusters: bool = True  # namespaces drawn as clusters (not in the node view)
 
 
 @dataclass(frozen=True, slots=True)

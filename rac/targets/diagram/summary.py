@@ -30,6 +30,15 @@ SUMMARY_ARROWS_PER_BOX = 2
 GROUP_ID = "group:"  # a namespace box's id: ':' is in no ROS name
 
 
+def summarised(model: Model) -> bool:
+    """Whether the default drawing of ``model`` is the summary: above SUMMARY_ABOVE_NODES
+    nodes, in two namespaces or more (one box would say nothing: a robot of one namespace
+    gets the node view, to pan and zoom, or --focus)."""
+    if len(model.nodes) <= SUMMARY_ABOVE_NODES:
+        return False
+    return len(namespace_groups(model)) > 1
+
+
 def draw_summary(
     model: Model, undetected: Mapping[str, tuple[str, ...]], health: Marks | None
 ) -> Scene:
