@@ -39,12 +39,17 @@ def register(sub: Any) -> None:
     parser = add_command(
         sub,
         "diagram",
-        "draw the architecture: namespaces, observer coverage, a focus, a diagnosis",
-        "Draw MODEL (.ram or ram/1 .json) for review: nodes clustered by namespace, topics "
-        "only one node touches and no observer watches folded into a count on the node, "
-        "infrastructure topics (/rosout, /tf, /tf_static, /diagnostics, /parameter_events) "
-        "shown only when observed, what watches each node and topic, and the components "
-        "whose faults no observer detects (the analysis of racc analyze) outlined in red.  "
+        "draw the architecture: data flow, observer coverage, a focus, a diagnosis",
+        "Draw MODEL (.ram or ram/1 .json) for review, laid out by data flow (sources first, "
+        "a loop's arrow back into a driver drawn against the flow): up to "
+        f"{_node_view_nodes()} nodes every topic on its arrow or box, above that one arrow "
+        "per pair of nodes with hubs drawn beside the nodes they talk to, and above "
+        f"{_summary_nodes()} nodes in several namespaces one box per namespace (--focus "
+        "opens one).  Topics only one node touches and no observer watches are folded into "
+        "a count on the node, infrastructure topics (/rosout, /tf, /tf_static, /diagnostics, "
+        "/parameter_events) shown only when observed; what watches each node and topic is "
+        "shown, and the components whose faults no observer detects (the analysis of racc "
+        "analyze) are outlined in red.  "
         "--diagnosis, --obs or --live colour a diagnosis on the drawing.  The suffix of "
         "FILE picks the format: .dot (no Graphviz needed), .svg, .png, .pdf, or .html (the "
         "SVG with pan, zoom, search and tooltips; opens without a network).  Without -o the "
@@ -53,6 +58,7 @@ def register(sub: Any) -> None:
         "  racc diagram models/warehouse.ram --focus /robot_41/localization/amcl --depth 1 "
         "-o amcl.svg\n"
         "  racc diagram models/warehouse.ram -o warehouse.html\n"
+        "  racc diagram models/warehouse.ram --focus /robot_41/localization -o loc.svg\n"
         "  racc diagram models/tedusar.ram --diagnosis jaguar_node -o fault.svg\n"
         "  racc diagram models/tedusar.ram --obs 'not ok(pose)' --obs 'running(jaguar_node)' "
         "-o fault.png\n"

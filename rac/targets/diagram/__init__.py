@@ -1,24 +1,24 @@
-"""architecture.dot: the Graphviz diagram, drawn with Figure 3.1's conventions.
+"""The architecture drawn for a reviewer (docs/diagrams.md), with Figure 3.1's conventions.
 
-Hardware are rectangles, nodes ellipses filled by class (SN dark grey, HN grey, N white),
-publish/subscribe arrows carry their topics, dotted lines join a driver to its hardware.
-On top of the dissertation's figure, for a reviewer (docs/diagrams.md):
+Hardware are rectangles, nodes ellipses or rounded boxes filled by class (SN dark grey, HN
+grey, N white), publish/subscribe arrows carry their topics, dotted lines join a driver to
+its hardware.  Three views of one model:
 
-- nodes are clustered by namespace;
-- a topic only one node touches and that no observer watches, and the infrastructure
-  topics (/rosout, /tf, …) unless observed, are folded into a count on their node
-  ("+87 topics"); :attr:`View.everything` draws them all;
-- what watches each node and topic is shown: the rate of a topic (its GObs), a node's cpu/mem
-  limits and reports, ``~`` for a related pair; an unwatched topic is grey, a component whose
-  fault no observer detects (``racc analyze``'s verdict, passed in :attr:`View.undetected`)
-  is outlined red and dashed;
-- :attr:`View.focus` draws one component's neighbourhood, :attr:`View.health` colours a
-  diagnosis, and :attr:`View.summary` draws one box per namespace for a large model;
-- the legend lists only the symbols the drawing uses.
+- the topic view (:mod:`.topics`; up to NODE_VIEW_ABOVE_NODES drawn nodes, ``--topics``,
+  ``--all``): every drawn topic on its arrow or in its box, nodes clustered by namespace;
+- the node view (:mod:`.flow`; above that): one arrow per ordered pair of nodes, topic boxes
+  only where needed, hubs beside the nodes they talk to, no cluster;
+- the summary (:mod:`.summary`; above SUMMARY_ABOVE_NODES nodes in several namespaces): one
+  box per namespace; ``--focus NAMESPACE`` opens one, the others as boxes around it.
 
-This module decides *what* is drawn; every string is quoted or escaped here, the template
-holds the fixed text.  Everything follows declaration order: the output is byte-identical
-from run to run.
+Both detailed views are laid out by data flow (:mod:`.layers`), fold the topics at most one
+node touches and no observer watches, and the unobserved infrastructure topics, into a count
+on their node, show what watches each node and topic, and outline in red a component whose
+fault no observer detects (:attr:`View.undetected`); :attr:`View.focus` draws a
+neighbourhood, :attr:`View.health` colours a diagnosis; the legend lists only the symbols
+drawn.  Every string is quoted or escaped by :mod:`.text`, safe for Graphviz whatever the
+model holds; the template holds the fixed text.  Everything follows declaration order: the
+output is byte-identical from run to run.
 """
 
 from __future__ import annotations

@@ -20,6 +20,7 @@ turns back: the driver stays with the sensors, its command returns to it.
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
@@ -41,8 +42,8 @@ def flow_order(
             pred[b].add(a)
     preferred = set(prefer)
     left = dict.fromkeys(nodes)  # in declaration order
-    sinks = [n for n in nodes if not succ[n]]
-    starts = [n for n in nodes if not pred[n]]
+    sinks = deque(n for n in nodes if not succ[n])
+    starts = deque(n for n in nodes if not pred[n])
     head: list[str] = []
     tail: list[str] = []
 
@@ -60,12 +61,12 @@ def flow_order(
     while left:
         while sinks or starts:
             while sinks:
-                n = sinks.pop(0)
+                n = sinks.popleft()
                 if n in left:
                     tail.append(n)
                     remove(n)
             while starts and not sinks:
-                n = starts.pop(0)
+                n = starts.popleft()
                 if n in left:
                     head.append(n)
                     remove(n)
