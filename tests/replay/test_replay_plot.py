@@ -48,6 +48,6 @@ def test_no_two_labels_overlap_and_none_leaves_the_figure() -> None:
                 assert not a.overlaps(b), (a, b)
         width, height = fig.bbox.width, fig.bbox.height
         for box in boxes:
-            assert 0 <= box.x0 and box.x1 <= width and box.y1 <= height, box
+            assert box.x0 >= 0 and box.x1 <= width and box.y1 <= height, box
     finally:
         plt.close(fig)

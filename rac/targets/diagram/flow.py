@@ -17,10 +17,10 @@ hubs drawn beside the nodes they talk to (docs/diagrams.md, "The node view").
 - **Hubs.** A node tied to more than a third of the others (and to at least
   :data:`HUB_MIN_PARTNERS`) is drawn beside each node it talks to, instead of once with
   arrows that cross the whole page: the copies are dashed but one, which carries its
-  details, and every copy carries its marks (diagnosis, unseen faults).  Bundling its arrows
-  instead (Graphviz's ``concentrate``) keeps them as long, merges them away from their
-  labels, and left the tugger's crossings at 241 where copies made them 59
-  (bench/diagram.py's robots; docs/diagrams.md).
+  details, and every copy carries its marks (diagnosis, unseen faults).  On the tugger
+  (tests/tug/tugger.yaml) its arrows crossed others 138 times drawn once, 138 bundled by
+  Graphviz's ``concentrate`` (bundles are as long, and an arrow through its label has no
+  twin to merge with), 90 with one copy per layer, 61 with a copy per partner.
 """
 
 from __future__ import annotations
@@ -174,8 +174,8 @@ def _hub_copies(hubs: list[str], graph: _Graph) -> dict[str, dict[str, int]]:
     Each neighbour (node or topic box) has a copy of its own, numbered from 1 in the order
     of the arrows: Graphviz then places it next to that neighbour.  Copies shared by the
     neighbours of one layer (tried first) still drew long arrows across a top-down page, as
-    a layer spans its width: the tugger's crossings were 119, with a copy each 59.  The
-    arrows between two hubs join copies of their own, numbered 0, which stand together.
+    a layer spans its width (the tugger: 90 crossings, 61 with a copy each).  The arrows
+    between two hubs join copies of their own, numbered 0, which stand together.
     """
     numbered: dict[str, dict[str, int]] = {h: {} for h in hubs}
     ends = [(a, b) for a, b in graph.pairs] + [(a, b) for a, b, _ in graph.box_edges]
