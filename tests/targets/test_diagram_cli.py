@@ -167,9 +167,10 @@ def test_the_text_is_the_same_whatever_the_hash_seed() -> None:
     import sys
 
     texts = set()
-    for seed in ("1", "2"):
+    views = (["--summary"], ["--all", "--analysis", "no"], ["--nodes", "--analysis", "no"])
+    for seed in ("1", "2", "3"):
         env = {**os.environ, "PYTHONHASHSEED": seed}
-        for view in (["--summary"], ["--all", "--analysis", "no"]):
+        for view in views:
             done = subprocess.run(
                 [sys.executable, "-m", "rac", "diagram", WAREHOUSE, *view, "-q"],
                 capture_output=True,
@@ -177,7 +178,7 @@ def test_the_text_is_the_same_whatever_the_hash_seed() -> None:
                 check=True,
             )
             texts.add((view[0], done.stdout))
-    assert len(texts) == 2
+    assert len(texts) == len(views)
 
 
 def test_replay_checks_the_diagram_file_before_replaying(

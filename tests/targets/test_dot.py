@@ -312,7 +312,7 @@ def test_nodes_are_clustered_by_namespace_below_the_shared_prefix(warehouse: Mod
     them in each node's name: around clusters, Graphviz routed arrows through nodes."""
     text = view_of(warehouse, level="topics")
     graph = parse(text)
-    clusters = {s.get_name(): s for s in graph.get_subgraphs() if "cluster_" in s.get_name()}
+    clusters = {s.get_name(): s for s in graph.get_subgraphs() if "cluster_" in str(s.get_name())}
     assert set(clusters) == {
         quote(f"cluster_/robot_41/{ns}")
         for ns in ("drivers", "localization", "navigation", "perception", "mission", "system")

@@ -34,12 +34,14 @@ def flow_order(
     a later node to an earlier one.  Where a loop must be broken, a node of ``prefer`` (a
     driver) goes first.  Deterministic: ties follow ``nodes``."""
     index = {n: i for i, n in enumerate(nodes)}
-    succ: dict[str, set[str]] = {n: set() for n in nodes}
-    pred: dict[str, set[str]] = {n: set() for n in nodes}
+    # dicts as ordered sets: a set's order changes with the hash seed, and so would the
+    # drawing
+    succ: dict[str, dict[str, None]] = {n: {} for n in nodes}
+    pred: dict[str, dict[str, None]] = {n: {} for n in nodes}
     for a, b in edges:
         if a != b and a in index and b in index:
-            succ[a].add(b)
-            pred[b].add(a)
+            succ[a][b] = None
+            pred[b][a] = None
     preferred = set(prefer)
     left = dict.fromkeys(nodes)  # in declaration order
     sinks = deque(n for n in nodes if not succ[n])
@@ -50,11 +52,11 @@ def flow_order(
     def remove(n: str) -> None:
         del left[n]
         for m in succ[n]:
-            pred[m].discard(n)
+            pred[m].pop(n, None)
             if not pred[m]:
                 starts.append(m)
         for m in pred[n]:
-            succ[m].discard(n)
+            succ[m].pop(n, None)
             if not succ[m]:
                 sinks.append(m)
 
