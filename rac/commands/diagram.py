@@ -44,10 +44,11 @@ def register(sub: Any) -> None:
         "a loop's arrow back into a driver drawn against the flow): up to "
         f"{_node_view_nodes()} nodes every topic on its arrow or box, above that one arrow "
         "per pair of nodes with hubs drawn beside the nodes they talk to, and above "
-        f"{_summary_nodes()} nodes in several namespaces one box per namespace (--focus "
-        "opens one).  Topics only one node touches and no observer watches are folded into "
-        "a count on the node, infrastructure topics (/rosout, /tf, /tf_static, /diagnostics, "
-        "/parameter_events) shown only when observed; what watches each node and topic is "
+        f"{_summary_nodes()} nodes in several namespaces (300 in one) one box per namespace "
+        "(--focus opens one).  Topics only one node touches and no observer watches are "
+        "folded into a count on the node, infrastructure topics (/rosout, /tf, /tf_static, "
+        "/diagnostics, /parameter_events) shown only when observed; what watches each node "
+        "and topic is "
         "shown, and the components whose faults no observer detects (the analysis of racc "
         "analyze) are outlined in red.  "
         "--diagnosis, --obs or --live colour a diagnosis on the drawing.  The suffix of "
@@ -113,7 +114,8 @@ def register(sub: Any) -> None:
         "--summary",
         action="store_true",
         help="one box per namespace (default: above "
-        f"{_summary_nodes()} nodes in two namespaces or more, as racc compile does)",
+        f"{_summary_nodes()} nodes in two namespaces or more, or 300 in one, as racc compile "
+        "does)",
     )
     parser.add_argument(
         "--analysis",

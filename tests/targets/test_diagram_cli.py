@@ -13,7 +13,7 @@ from diagram_robots import synthetic_robot
 from rac.cli import main
 from rac.fmt import format_model
 from rac.ir import Model, Name, Node, Publication, Topic
-from rac.targets.dot import SUMMARY_ABOVE_NODES
+from rac.targets.dot import SUMMARY_ABOVE_NODES, summarised
 
 ROOT = Path(__file__).resolve().parents[2]
 TEDUSAR = str(ROOT / "models" / "tedusar.ram")
@@ -257,3 +257,13 @@ def test_a_300_node_robot_gets_the_summary_and_its_namespaces_open(
     assert code == 0 and "(the node view of 25 of 300 nodes," in said
     inside = re.findall(rf'^  +"({boxes[3]}/[^"→]+)" \[', text, re.M)
     assert len(inside) == 25 and '"group:' in text
+
+
+def test_a_robot_of_one_namespace_is_summarised_only_above_300_nodes() -> None:
+    """Its summary is one box: up to 300 nodes it gets the node view (Graphviz: 9 s at 300),
+    above the box again, as before (the full drawing would pass compile's 120 s)."""
+    assert not summarised(synthetic_robot(SUMMARY_ABOVE_NODES + 1, 1))
+    assert not summarised(synthetic_robot(300, 1))
+    assert summarised(synthetic_robot(301, 1))
+    assert summarised(synthetic_robot(SUMMARY_ABOVE_NODES + 1, 2))
+    assert not summarised(synthetic_robot(SUMMARY_ABOVE_NODES, 2))

@@ -25,6 +25,7 @@ from rac.targets.diagram.topology import Topology, common_namespace, short
 # pt up to about 60 nodes in one namespace and 30 in four; at 100 nodes it was 4,160 pt wide
 # in one namespace and 7,213 pt in six, at 300 nodes 14,968 pt: pan and zoom, or a summary.
 SUMMARY_ABOVE_NODES = 100
+ONE_NAMESPACE_SUMMARY_ABOVE_NODES = 300
 # The summary draws at most this many arrows per namespace box, the heaviest flows.
 SUMMARY_ARROWS_PER_BOX = 2
 GROUP_ID = "group:"  # a namespace box's id: ':' is in no ROS name
@@ -32,11 +33,12 @@ GROUP_ID = "group:"  # a namespace box's id: ':' is in no ROS name
 
 def summarised(model: Model) -> bool:
     """Whether the default drawing of ``model`` is the summary: above SUMMARY_ABOVE_NODES
-    nodes, in two namespaces or more (one box would say nothing: a robot of one namespace
-    gets the node view, to pan and zoom, or --focus)."""
+    nodes in two namespaces or more; in one namespace (where its one box says little) only
+    above ONE_NAMESPACE_SUMMARY_ABOVE_NODES, as before the node view: Graphviz takes long
+    beyond (bench/diagram.py's robot of one namespace: 9 s at 300 nodes, 19 s at 1,000)."""
     if len(model.nodes) <= SUMMARY_ABOVE_NODES:
         return False
-    return len(namespace_groups(model)) > 1
+    return len(model.nodes) > ONE_NAMESPACE_SUMMARY_ABOVE_NODES or len(namespace_groups(model)) > 1
 
 
 def draw_summary(
