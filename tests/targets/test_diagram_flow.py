@@ -194,9 +194,7 @@ def test_no_arrow_runs_through_a_label_or_a_node(name: str) -> None:
     }
     model = robots[name]()
     seen = measure(layout(draw(model)))
-    # Between namespace clusters, Graphviz's router let one warehouse arrow graze the end of
-    # a label's box as Graphviz measures its text (the rendered text ends before it)
-    assert seen.on_labels <= (1 if name == "warehouse" else 0)
+    assert seen.on_labels == 0
     assert seen.through_nodes == 0
 
 
