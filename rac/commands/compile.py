@@ -20,7 +20,7 @@ from rac.targets import (
     emit_all,
     targets,
 )
-from rac.targets.dot import SUMMARY_ABOVE_NODES
+from rac.targets.dot import SUMMARY_ABOVE_NODES, summarised
 
 SVG_NOTE = (
     "note: Graphviz 'dot' was not found, so architecture.svg was not written; "
@@ -112,7 +112,7 @@ def _compile(args: argparse.Namespace) -> int:
 
                 title = f"robot {compiled.model.name.value}"
                 files["architecture.html"] = emit_html(svg.decode("utf-8"), title)
-    if len(compiled.model.nodes) > SUMMARY_ABOVE_NODES and not args.quiet:
+    if summarised(compiled.model) and not args.quiet:
         print(
             f"note: {len(compiled.model.nodes):,} nodes (over {SUMMARY_ABOVE_NODES}): "
             "architecture.dot is the summary, one box per namespace; draw the detail with "

@@ -28,6 +28,7 @@ if TYPE_CHECKING:
     from rac.diagnosis import Theory
     from rac.pipeline import Compiled
     from rac.targets.coverage import Health
+    from rac.targets.diagram import Drawing
 
 # The coverage analysis costs one propagation per fault and mode: 0.05 s at 30 nodes, 5 s
 # at 300, 80 s at 1,000 (docs/diagrams.md).  Above this many nodes it runs only when asked.
@@ -38,12 +39,18 @@ def register(sub: Any) -> None:
     parser = add_command(
         sub,
         "diagram",
-        "draw the architecture: namespaces, observer coverage, a focus, a diagnosis",
-        "Draw MODEL (.ram or ram/1 .json) for review: nodes clustered by namespace, topics "
-        "only one node touches and no observer watches folded into a count on the node, "
-        "infrastructure topics (/rosout, /tf, /tf_static, /diagnostics, /parameter_events) "
-        "shown only when observed, what watches each node and topic, and the components "
-        "whose faults no observer detects (the analysis of racc analyze) outlined in red.  "
+        "draw the architecture: data flow, observer coverage, a focus, a diagnosis",
+        "Draw MODEL (.ram or ram/1 .json) for review, laid out by data flow (sources first, "
+        "a loop's arrow back into a driver drawn against the flow): up to "
+        f"{_node_view_nodes()} nodes every topic on its arrow or box, above that one arrow "
+        "per pair of nodes with hubs drawn beside the nodes they talk to, and above "
+        f"{_summary_nodes()} nodes in several namespaces (300 in one) one box per namespace "
+        "(--focus opens one).  Topics only one node touches and no observer watches are "
+        "folded into a count on the node, infrastructure topics (/rosout, /tf, /tf_static, "
+        "/diagnostics, /parameter_events) shown only when observed; what watches each node "
+        "and topic is "
+        "shown, and the components whose faults no observer detects (the analysis of racc "
+        "analyze) are outlined in red.  "
         "--diagnosis, --obs or --live colour a diagnosis on the drawing.  The suffix of "
         "FILE picks the format: .dot (no Graphviz needed), .svg, .png, .pdf, or .html (the "
         "SVG with pan, zoom, search and tooltips; opens without a network).  Without -o the "
@@ -52,6 +59,7 @@ def register(sub: Any) -> None:
         "  racc diagram models/warehouse.ram --focus /robot_41/localization/amcl --depth 1 "
         "-o amcl.svg\n"
         "  racc diagram models/warehouse.ram -o warehouse.html\n"
+        "  racc diagram models/warehouse.ram --focus /robot_41/localization -o loc.svg\n"
         "  racc diagram models/tedusar.ram --diagnosis jaguar_node -o fault.svg\n"
         "  racc diagram models/tedusar.ram --obs 'not ok(pose)' --obs 'running(jaguar_node)' "
         "-o fault.png\n"
@@ -71,23 +79,43 @@ def register(sub: Any) -> None:
         dest="everything",
         help="draw every topic and node: fold nothing, never summarise (default: fold)",
     )
+    level = parser.add_mutually_exclusive_group()
+    level.add_argument(
+        "--nodes",
+        action="store_const",
+        const="nodes",
+        dest="level",
+        help="one arrow per pair of nodes, labelled with its topic or how many it carries, "
+        "hubs drawn beside the nodes they talk to (default above "
+        f"{_node_view_nodes()} drawn nodes)",
+    )
+    level.add_argument(
+        "--topics",
+        action="store_const",
+        const="topics",
+        dest="level",
+        help="every drawn topic on its own arrow or box, as the dissertation's Figure 3.1 "
+        f"(default up to {_node_view_nodes()} drawn nodes, and with --all)",
+    )
     parser.add_argument(
         "--focus",
         metavar="NAME",
-        help="draw only this node, hardware or topic and its neighbourhood (default: all)",
+        help="draw only this node, hardware, topic or namespace and its neighbourhood "
+        "(default: all); a namespace's neighbours are drawn as namespace boxes",
     )
     parser.add_argument(
         "--depth",
         metavar="N",
         type=_depth,
-        default=1,
-        help="with --focus: node-to-node hops drawn upstream and downstream (default: 1)",
+        help="with --focus: node-to-node hops drawn upstream and downstream (default: 1 "
+        "around a node, hardware or topic, 0 around a namespace)",
     )
     parser.add_argument(
         "--summary",
         action="store_true",
-        help="one box per namespace (default: only above "
-        f"{_summary_nodes()} nodes, as racc compile does)",
+        help="one box per namespace (default: above "
+        f"{_summary_nodes()} nodes in two namespaces or more, or 300 in one, as racc compile "
+        "does)",
     )
     parser.add_argument(
         "--analysis",
@@ -144,8 +172,14 @@ def _summary_nodes() -> int:
     return SUMMARY_ABOVE_NODES
 
 
+def _node_view_nodes() -> int:
+    from rac.targets.diagram import NODE_VIEW_ABOVE_NODES
+
+    return NODE_VIEW_ABOVE_NODES
+
+
 def run(args: argparse.Namespace) -> int:
-    from rac.targets.dot import SUMMARY_ABOVE_NODES, View, emit_diagram
+    from rac.targets.dot import View, draw_diagram, summarised
 
     started = time.perf_counter()
     suffix = check_suffix(args.output)
@@ -153,8 +187,8 @@ def run(args: argparse.Namespace) -> int:
     model = compiled.model
     if args.focus is not None:
         check_focus(compiled, args.focus)
-    summary = not args.everything and args.focus is None
-    summary = summary and (args.summary or len(model.nodes) > SUMMARY_ABOVE_NODES)
+    summary = not args.everything and args.focus is None and args.level is None
+    summary = summary and (args.summary or summarised(model))
     theory = theory_of(compiled)
     health = _health(args, compiled, theory)
     undetected = None
@@ -167,34 +201,54 @@ def run(args: argparse.Namespace) -> int:
         focus=args.focus,
         depth=args.depth,
         summary=summary,
+        level=args.level or "auto",
         undetected=undetected,
         health=health,
     )
-    text = emit_diagram(model, compiled.observers, view)
-    write_diagram(args.output, text, suffix, f"robot {model.name.value}")
+    drawing = draw_diagram(model, compiled.observers, view)
+    write_diagram(args.output, drawing.text, suffix, f"robot {model.name.value}")
     if not args.quiet and args.output:
         took = time.perf_counter() - started
-        print(f"wrote {args.output} ({count(len(model.nodes), 'node')}, {took:.2f} s)")
+        print(f"wrote {args.output} ({_what(drawing, len(model.nodes))}, {took:.2f} s)")
     elif not args.output:
-        sys.stdout.write(text)
+        sys.stdout.write(drawing.text)
     return 0
 
 
+def _what(drawing: Drawing, nodes: int) -> str:
+    """``the node view of 31 nodes``, ``the topic view of 7 of 31 nodes``, ``…``."""
+    drawn = (
+        count(nodes, "node") if drawing.nodes == nodes else f"{drawing.nodes:,} of {nodes:,} nodes"
+    )
+    kind = {"nodes": "the node view", "topics": "the topic view", "summary": "the summary"}
+    return f"{kind[drawing.view]} of {drawn}"
+
+
 def check_focus(compiled: Compiled, name: str) -> None:
+    from rac.targets.diagram.topology import Topology, focus_namespace, namespace
+
     model = compiled.model
     names = [n.name.value for n in model.nodes] + [h.name.value for h in model.hardware]
     names += [t.name.value for t in model.topics]
-    if name in names:
+    if name in names or focus_namespace(model, Topology(model), name) is not None:
         return
     import difflib
 
-    close = difflib.get_close_matches(name, names, n=3, cutoff=0.5)
-    hint = f"did you mean {', '.join(close)}?" if close else "give a node, hardware or topic name"
+    spaces = {namespace(n.name.value) for n in model.nodes} - {""}
+    for space in list(spaces):  # and the namespaces that hold them
+        while space := namespace(space):
+            spaces.add(space)
+    close = difflib.get_close_matches(name, [*names, *sorted(spaces)], n=3, cutoff=0.5)
+    hint = (
+        f"did you mean {', '.join(close)}?"
+        if close
+        else "give a node, hardware, topic or namespace name"
+    )
     raise RacError(
         [
             Diagnostic(
                 "RAC066",
-                f"--focus {name}: the model has no node, hardware or topic so named",
+                f"--focus {name}: the model has no node, hardware, topic or namespace so named",
                 hint=hint,
             )
         ]

@@ -2,16 +2,18 @@
 
 from __future__ import annotations
 
+import re
 import shutil
 from pathlib import Path
 
 import foreign_bag
 import pytest
+from diagram_robots import synthetic_robot
 
 from rac.cli import main
 from rac.fmt import format_model
 from rac.ir import Model, Name, Node, Publication, Topic
-from rac.targets.dot import SUMMARY_ABOVE_NODES
+from rac.targets.dot import SUMMARY_ABOVE_NODES, summarised
 
 ROOT = Path(__file__).resolve().parents[2]
 TEDUSAR = str(ROOT / "models" / "tedusar.ram")
@@ -165,9 +167,10 @@ def test_the_text_is_the_same_whatever_the_hash_seed() -> None:
     import sys
 
     texts = set()
-    for seed in ("1", "2"):
+    views = (["--summary"], ["--all", "--analysis", "no"], ["--nodes", "--analysis", "no"])
+    for seed in ("1", "2", "3"):
         env = {**os.environ, "PYTHONHASHSEED": seed}
-        for view in (["--summary"], ["--all", "--analysis", "no"]):
+        for view in views:
             done = subprocess.run(
                 [sys.executable, "-m", "rac", "diagram", WAREHOUSE, *view, "-q"],
                 capture_output=True,
@@ -175,7 +178,7 @@ def test_the_text_is_the_same_whatever_the_hash_seed() -> None:
                 check=True,
             )
             texts.add((view[0], done.stdout))
-    assert len(texts) == 2
+    assert len(texts) == len(views)
 
 
 def test_replay_checks_the_diagram_file_before_replaying(
@@ -186,3 +189,81 @@ def test_replay_checks_the_diagram_file_before_replaying(
         capsys, "replay", PIONEER, missing, "--diagram-at", "1", "--diagram", "x.txt"
     )
     assert code == 1 and "error[RAC068]" in err and "missing.bag" not in err
+
+
+def test_the_view_is_chosen_by_size_or_by_flag(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = str(tmp_path / "t.dot")
+    code, said, _ = run(capsys, "diagram", TEDUSAR, "-o", out, "--analysis", "no")
+    assert code == 0 and "(the topic view of 9 nodes," in said
+    code, said, _ = run(capsys, "diagram", TEDUSAR, "-o", out, "--analysis", "no", "--nodes")
+    assert code == 0 and "(the node view of 9 nodes," in said
+    code, said, _ = run(capsys, "diagram", WAREHOUSE, "-o", out, "--analysis", "no")
+    assert code == 0 and "(the node view of 31 nodes," in said
+    code, said, _ = run(capsys, "diagram", WAREHOUSE, "-o", out, "--analysis", "no", "--topics")
+    assert code == 0 and "(the topic view of 31 nodes," in said
+    with pytest.raises(SystemExit) as stop:
+        main(["diagram", TEDUSAR, "--nodes", "--topics"])
+    assert stop.value.code == 2
+
+
+def test_a_focus_says_how_many_of_the_models_nodes_it_drew(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 37: the focus view's message counted every node of the model."""
+    out = str(tmp_path / "f.dot")
+    amcl = "/robot_41/localization/amcl"
+    code, said, _ = run(capsys, "diagram", WAREHOUSE, "--focus", amcl, "-o", out)
+    found = re.findall(r'^  +"(/robot_41/[^"]+)" \[', Path(out).read_text(), re.M)
+    drawn = {name for name in found if " → " not in name}  # not an arrow's label
+    assert code == 0 and f"(the topic view of {len(drawn)} of 31 nodes," in said
+    assert len(drawn) < 31
+
+
+def test_a_namespace_opens_with_its_neighbours_as_boxes(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "ns.dot"
+    code, _, _ = run(
+        capsys, "diagram", WAREHOUSE, "--focus", "/robot_41/localization", "-o", str(out), "-q"
+    )
+    text = out.read_text()
+    assert code == 0
+    assert (
+        '"/robot_41/localization/amcl" [' in text
+        and '"/robot_41/localization/map_server" [' in text
+    )
+    assert '"/robot_41/navigation/move_base" [' not in text  # outside: in its box
+    assert '"group:/robot_41/drivers" [' in text and '"group:/robot_41/navigation" [' in text
+    assert "focus: namespace /robot_41/localization, 0 hop(s)" in text
+    code, _, err = run(capsys, "diagram", WAREHOUSE, "--focus", "/robot_41/localisation")
+    assert code == 1 and "error[RAC066]" in err and "did you mean /robot_41/localization" in err
+
+
+def test_a_300_node_robot_gets_the_summary_and_its_namespaces_open(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    model = tmp_path / "big.ram"
+    model.write_text(format_model(synthetic_robot(300, 12)), "utf-8")
+    out = tmp_path / "s.dot"
+    code, said, _ = run(capsys, "diagram", str(model), "-o", str(out))
+    text = out.read_text()
+    assert code == 0 and "(the summary of 300 nodes," in said
+    boxes = re.findall(r'^  +"group:(/robot/[a-z]+\d+)" \[', text, re.M)
+    assert len(boxes) == 12 and f"--focus {boxes[3]} opens it" in text
+    code, said, _ = run(capsys, "diagram", str(model), "--focus", boxes[3], "-o", str(out))
+    text = out.read_text()
+    assert code == 0 and "(the node view of 25 of 300 nodes," in said
+    inside = re.findall(rf'^  +"({boxes[3]}/[^"→]+)" \[', text, re.M)
+    assert len(inside) == 25 and '"group:' in text
+
+
+def test_a_robot_of_one_namespace_is_summarised_only_above_300_nodes() -> None:
+    """Its summary is one box: up to 300 nodes it gets the node view (Graphviz: 9 s at 300),
+    above the box again, as before (the full drawing would pass compile's 120 s)."""
+    assert not summarised(synthetic_robot(SUMMARY_ABOVE_NODES + 1, 1))
+    assert not summarised(synthetic_robot(300, 1))
+    assert summarised(synthetic_robot(301, 1))
+    assert summarised(synthetic_robot(SUMMARY_ABOVE_NODES + 1, 2))
+    assert not summarised(synthetic_robot(SUMMARY_ABOVE_NODES, 2))

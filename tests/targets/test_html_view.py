@@ -10,8 +10,10 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from diagram_robots import tugger
 
 from rac.cli import main
+from rac.fmt import format_model
 from rac.targets.html import emit_html
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -112,9 +114,13 @@ def test_a_real_browser_searches_and_shows_a_tooltip(tmp_path: Path) -> None:
     # search: the node, the topic box /robot_41/amcl_pose and the arrows to and from them
     # match, the rest is dimmed
     assert re.search(r'<svg [^>]*class="searching"', dom)
-    hits = re.findall(r'<g id="node\d+" class="node hit" data-name="([^"]+)"', dom)
-    assert sorted(hits) == ["/robot_41/amcl_pose", AMCL]
-    arrows = re.findall(r'<g id="edge\d+" class="edge hit" data-name="([^"]+)"', dom)
+    found = re.findall(
+        r'<g id="(?:node|edge)\d+" class="(?:node|edge) hit" data-name="([^"]+)"', dom
+    )
+    hits = sorted({name for name in found if " → " not in name})
+    assert hits == ["/robot_41/amcl_pose", AMCL]
+    # an arrow's two edges and its label are one match, named by its ends
+    arrows = {name for name in found if " → " in name}
     assert "/robot_41/localization/map_server → /robot_41/localization/amcl" in arrows
     assert f'<span id="count">{len(hits) + len(arrows)} matches</span>' in dom
     # the tooltip: the component's observers
@@ -135,11 +141,32 @@ def test_a_real_browser_searches_and_shows_a_tooltip(tmp_path: Path) -> None:
 def test_a_topic_on_an_arrow_is_found_and_nothing_says_so(tmp_path: Path) -> None:
     page = written_page(tmp_path)
     dom = browser_dom(page, "#search=cmd_vel_smoothed", tmp_path)
-    arrows = re.findall(r'<g id="edge\d+" class="edge hit" data-name="([^"]+)"', dom)
-    assert arrows == [
-        "/robot_41/navigation/velocity_smoother → /robot_41/navigation/collision_monitor"
-    ]
+    found = re.findall(r'<g id="(?:node|edge)\d+" class="(node|edge) hit" data-name="([^"]+)"', dom)
+    arrow = "/robot_41/navigation/velocity_smoother → /robot_41/navigation/collision_monitor"
+    # the arrow's label (a node) and its two edges
+    assert sorted(found) == [("edge", arrow), ("edge", arrow), ("node", arrow)]
     assert '<span id="count">1 match</span>' in dom
     dom = browser_dom(page, "#search=no_such_thing", tmp_path)
     assert '<span id="count">0 matches</span>' in dom
     assert not re.search(r'class="(node|edge) hit"', dom)
+
+
+@pytest.mark.skipif(not HAVE_DOT, reason="Graphviz dot is not installed")
+@pytest.mark.skipif(CHROMIUM is None, reason="chromium is not installed (.ci/run installs it)")
+def test_a_hubs_copies_are_one_name_in_the_page(tmp_path: Path) -> None:
+    """The tugger's task manager is drawn beside each node it talks to: a search finds its
+    copies as one match, and its tooltip says so."""
+    model = tmp_path / "tugger.ram"
+    model.write_text(format_model(tugger()), "utf-8")
+    page = tmp_path / "tugger.html"
+    assert main(["diagram", str(model), "-o", str(page), "-q", "--analysis", "no"]) == 0
+    dom = browser_dom(page, "#search=task_manager&tip=task_manager", tmp_path)
+    found = re.findall(r'<g id="(?:node|edge)\d+" class="(node|edge) hit" data-name="([^"]+)"', dom)
+    copies = [name for kind, name in found if kind == "node" and name == "task_manager"]
+    assert len(copies) > 10  # a copy beside each partner, each named task_manager
+    names = {name for _, name in found}
+    assert f'<span id="count">{len(names)} matches</span>' in dom
+    tip = re.search(
+        r'<div id="tip" role="tooltip" data-for="task_manager"[^>]*>(.*?)</div>', dom, re.S
+    )
+    assert tip is not None and "beside the nodes it talks to (a hub)" in html.unescape(tip.group(1))
