@@ -99,6 +99,7 @@ def test_bad_models(path: Path) -> None:
         _same_or_bail(text)
 
 
+@pytest.mark.slow
 def test_mutants() -> None:
     rng = random.Random(2)
     texts = [ODD, *(p.read_text(encoding="utf-8") for p in MODELS)]
@@ -115,6 +116,7 @@ def test_mutants() -> None:
     assert read > 100  # the fast path is exercised, not only bailed from
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @given(models())
 def test_formatted_random_models(model: object) -> None:

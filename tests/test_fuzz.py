@@ -130,6 +130,7 @@ def _clean(call: object) -> None:
         err.render()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("block", range(4))
 def test_ram_mutants_never_crash(block: int) -> None:
     for seed in range(block * 500, block * 500 + 500):
@@ -163,6 +164,7 @@ def _base_recordings_removed() -> Iterator[None]:
     remove_base_bags()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", KINDS)
 def test_end_to_end_mutants_outputs_read_back(kind: str, tmp_path: Path) -> None:
     """Through the CLI: every accepted model's outputs parse, model.yaml via racc diagnose."""

@@ -89,6 +89,7 @@ def test_fmt_keeps_comments_in_place() -> None:
     assert format_model(parse_ram(out)) == out
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(models())
 def test_random_round_trip(model: Model) -> None:
@@ -242,6 +243,7 @@ def _respaced(draw: st.DrawFn) -> str:
     return text
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(_respaced())
 def test_fast_parser_builds_what_lark_builds(text: str) -> None:

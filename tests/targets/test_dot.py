@@ -335,6 +335,7 @@ def test_parallel_topics_share_one_arrow_and_a_long_list_is_cut() -> None:
     assert "/t6 (m/M, 5 Hz)" in edges[0]["tooltip"]
 
 
+@pytest.mark.slow
 def test_nodes_are_clustered_by_namespace_below_the_shared_prefix(warehouse: Model) -> None:
     text = emit(warehouse)
     graph = parse(text)
@@ -373,6 +374,7 @@ def graph_attrs(text: str) -> dict[str, str]:
     return attrs(parse(text).get_node("graph")[0])
 
 
+@pytest.mark.slow
 def test_namespaces_make_the_drawing_compact(tedusar: Model, warehouse: Model) -> None:
     """Several namespace clusters: top-down, rounded boxes, one line of details; a robot
     without namespaces keeps Figure 3.1's left-to-right ellipses, and so does --all."""
