@@ -226,4 +226,6 @@ CODES: dict[str, str] = {
     "RAC105": "a feedback loop too large for the exact loop rule",
     "RAC106": "part of an imported configuration has no counterpart (note)",
     "RAC107": "the ground truth names another robot",
+    # Usability pass 3 (issue 38).
+    "RAC180": "a name in an imported configuration has white space around it (warning)",
 }
