@@ -32,7 +32,7 @@ import os
 import subprocess
 import threading
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -114,15 +114,46 @@ def is_observer_host(cmdline: Sequence[str]) -> bool:
 
 
 GRAPH_VARIABLES = ("ROS_MASTER_URI", "ROS_DOMAIN_ID")  # which ROS graph a process is in
+DEFAULT_MASTER_URI = "http://localhost:11311"  # what rospy uses where the variable is unset
+_LOCAL_HOSTS = ("localhost", "127.0.0.1", "::1", "ip6-localhost")
+
+
+def ros_graph(env: Mapping[str, str]) -> tuple[str, str]:
+    """The ROS graph a process with environment ``env`` is in, as ROS reads the variables:
+    its master (ROS 1) and its domain (ROS 2).  An unset ROS_MASTER_URI is rospy's default,
+    and one master is one however its URI is spelled on this machine: roslaunch sets
+    ``http://localhost:11311/`` in its nodes' environment where Debian's shell sets none,
+    and ``127.0.0.1``, this host's name or a trailing '/' name the same master.  An unset
+    or empty ROS_DOMAIN_ID is domain 0."""
+    import socket
+    from urllib.parse import urlsplit
+
+    uri = env.get("ROS_MASTER_URI", "").strip() or DEFAULT_MASTER_URI
+    try:
+        parts = urlsplit(uri)
+        host = (parts.hostname or "").lower()
+        port = parts.port
+    except ValueError:  # not a URI: compared as written
+        return uri, _domain(env)
+    local = {*_LOCAL_HOSTS, socket.gethostname().lower()}
+    if host in local or host.startswith("127."):
+        host = "localhost"
+    master = f"{parts.scheme.lower()}://{host}:{port}{parts.path.rstrip('/')}"
+    return master, _domain(env)
+
+
+def _domain(env: Mapping[str, str]) -> str:
+    value = env.get("ROS_DOMAIN_ID", "").strip() or "0"
+    return str(int(value)) if value.isdigit() else value
 
 
 def observer_host_started() -> float | None:
-    """When the oldest racc observer host of this ROS graph (the same ROS_MASTER_URI and
-    ROS_DOMAIN_ID as ours) running on this machine started (epoch seconds); None while
+    """When the oldest racc observer host of this ROS graph (the same master and domain as
+    ours: :func:`ros_graph`) running on this machine started (epoch seconds); None while
     there is none."""
     import psutil
 
-    ours = [os.environ.get(v, "") for v in GRAPH_VARIABLES]
+    ours = ros_graph(os.environ)
     starts = []
     for proc in psutil.process_iter(["cmdline", "create_time"]):
         if not is_observer_host(proc.info["cmdline"] or []):
@@ -131,7 +162,7 @@ def observer_host_started() -> float | None:
             env = proc.environ()
         except psutil.Error:
             continue
-        if [env.get(v, "") for v in GRAPH_VARIABLES] == ours:
+        if ros_graph(env) == ours:
             starts.append(float(proc.info["create_time"]))
     return min(starts) if starts else None
 
