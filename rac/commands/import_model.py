@@ -11,7 +11,7 @@ from rac.commands.common import add_command, count, print_warnings
 from rac.commands.options import rate_hz
 from rac.errors import Diagnostic, RacError
 from rac.fmt import format_model
-from rac.load.output import write_file_atomically
+from rac.load.output import check_output_file, write_file_atomically
 from rac.load.tug import load_tug
 from rac.pipeline import compile_model
 from rac.tug import DEFAULT_RATE_HZ
@@ -49,6 +49,7 @@ def register(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     name = args.name or Path(args.config).stem
+    check_output_file(args.output)
     imported = load_tug(args.config, name, args.default_rate)
     model = imported.model
     # The model's names carry their spans in the configuration: an error of the model is

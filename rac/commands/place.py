@@ -15,7 +15,7 @@ from rac.diagnosis.modes import MODES
 from rac.fmt import format_model
 from rac.load.costs import load_costs
 from rac.load.files import load_model
-from rac.load.output import write_file_atomically
+from rac.load.output import check_output_file, write_file_atomically
 from rac.load.theory import load_theory
 
 
@@ -131,6 +131,7 @@ def summary(p: Placement) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_output_file(args.output)
     theory = load_theory(args.model)
     learned = load_model(args.candidates) if args.candidates else None
     costs = load_costs(args.costs) if args.costs else None

@@ -26,6 +26,7 @@ from rac.learn.raw import row_reader
 from rac.learn.recording import WRAPPING, Recording, Run, TopicData, merge_runs
 from rac.limits import check_yaml_limits
 from rac.load.files import read_text
+from rac.load.kinds import RECORDING, check_kind
 
 # What a damaged bag raises while its messages are read: rosbags' own errors, the
 # struct/index/assert failures of its parsers meeting corrupt bytes, SQLite's (through apsw)
@@ -80,6 +81,7 @@ def read_run(
 ) -> Run:
     """Every topic of one recording (or only ``topics``), with the fields ``selector`` wants."""
     p = Path(path)
+    check_kind(path, RECORDING, "RAC080")
     try:
         if not p.exists():  # inside: a name too long for the file system raises here
             raise _fail(str(path), "no such file or directory")
