@@ -135,6 +135,9 @@ def _damage(err: Exception, path: Path) -> str:
     if isinstance(err, KeyError | IndexError | AssertionError) and str(err):
         # Their text alone is a bare key or index ("'sensor_msgs/msg/Imu'").
         why = f"damaged or inconsistent ({type(err).__name__}: {err})"
+    elif isinstance(err, UnicodeDecodeError):  # Python's "'utf-8' codec can't decode ..."
+        byte = err.object[err.start : err.start + 1].hex() or "?"
+        why = f"damaged: a name or text in it is not UTF-8 (byte 0x{byte})"
     elif isinstance(err, OverflowError):  # "cannot fit 'int' into an index-sized integer"
         why = f"a length in it is damaged (OverflowError: {err})"
     elif isinstance(err, apsw.Error):
