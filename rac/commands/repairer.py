@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from rac.commands.common import add_command, add_ros_option, ros_version
-from rac.errors import Diagnostic, RacError
+from rac.errors import Diagnostic, RacError, did_you_mean
 from rac.load.files import load_observers
 from rac.load.kinds import OBSERVERS, ROBOT_LAUNCH, check_kind
 from rac.load.theory import load_theory, robot_name
@@ -224,6 +224,15 @@ def run(args: argparse.Namespace) -> int:
         check_kind(args.launch, ROBOT_LAUNCH, "RAC117" if ros == 2 else "RAC059")
     if args.observers:
         check_kind(args.observers, OBSERVERS, "RAC056")
+    observers = args.observers or str(Path(args.model).parent / "observers.yaml")
+    placements, machines = where(observers)
+    if args.machine and Path(observers).is_file() and args.machine not in machines:  # no ROS yet
+        known = ", ".join(machines) or "none"
+        message = f"{observers}: the model has no machine '{args.machine}' (machines: {known})"
+        hint = did_you_mean(args.machine, machines) or (
+            "give a machine the model declares ('machine NAME'), or leave --machine out"
+        )
+        raise RacError([Diagnostic("RAC140", message, hint=hint)])
     if args.launch and ros == 2:
         from rac.ros2.launch import load_launch
 
@@ -234,10 +243,8 @@ def run(args: argparse.Namespace) -> int:
 
         require_ros()  # RAC057 without ROS 1 (roslaunch reads the file)
         load_launch_nodes(args.launch)  # RAC059 before any ROS work
-    observers = args.observers or str(Path(args.model).parent / "observers.yaml")
     args.launch = args.launch or None  # the compiled launch file passes "--launch=" for none
     nodes, devices = names(observers)
-    placements, machines = where(observers)
     job = RepairJob(
         theory,
         robot_name(theory, args.model),

@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from rac.errors import Diagnostic, RacError
+from rac.errors import Diagnostic, RacError, did_you_mean
 from rac.ir import Model, Node, Topic
 from rac.runtime.status import Row, row_channel
 from rac.synth.faults import FAULT_KINDS, FAULT_SPEC, FREQ_FACTOR, Fault, parse_fault
@@ -83,14 +83,15 @@ def parse_demo_fault(spec: str, model: Model) -> Fault:
         switchable = sorted(h.name.value for h in model.hardware if h.switchable)
         if match["target"] not in switchable:
             why = f"trip needs switchable hardware (one of {', '.join(switchable) or 'none'})"
-            raise RacError([Diagnostic("RAC113", f"fault '{spec}': {why}", hint=hint)])
+            close = did_you_mean(match["target"], switchable) or hint
+            raise RacError([Diagnostic("RAC113", f"fault '{spec}': {why}", hint=close)])
         duration = float(match["d"]) if match["d"] else None
         return Fault("trip", float(match["t"]), duration, match["target"])
     try:
         return parse_fault(spec, model)
     except RacError as err:
-        message = err.diagnostics[0].message
-        raise RacError([Diagnostic("RAC113", message, hint=hint)]) from None
+        found = err.diagnostics[0]  # synth's: its did-you-mean, when it has one
+        raise RacError([Diagnostic("RAC113", found.message, hint=found.hint or hint)]) from None
 
 
 def fault_text(f: Fault) -> str:
