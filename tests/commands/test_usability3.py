@@ -66,3 +66,28 @@ def test_a_bag_with_a_damaged_header_says_so_in_words(
     assert code == 1
     assert "codec" not in err
     assert f"{bag}: cannot read the recording: damaged: a name or text in it is not UTF-8" in err
+
+
+def test_demo_help_says_roslaunch_starts_a_master(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        main(["demo", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "a running master" not in text
+    assert "roslaunch starts a master when none answers at ROS_MASTER_URI" in text
+
+
+def test_run_given_the_model_and_demo_given_the_build_say_what_to_pass(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`racc run models/tedusar.ram` said "cannot read the launch file: not well-formed";
+    `racc demo build/tedusar` "is a directory, not a file"."""
+    code, _, err = _run(["run", "--ros", "1", TEDUSAR], capsys)
+    assert code == 1
+    assert f"{TEDUSAR}: is a .ram model, not the directory racc compile wrote" in err
+    assert f"compile it first: racc compile {TEDUSAR} -o build/tedusar, then racc run" in err
+    build = tmp_path / "tedusar"
+    assert main(["compile", TEDUSAR, "-o", str(build), "-q"]) == 0
+    code, _, err = _run(["demo", str(build), "--write-only", "-o", str(tmp_path / "d")], capsys)
+    assert code == 1
+    assert f"{build}: is the directory racc compile wrote, not a model (a .ram" in err
+    assert "give the .ram (or .json) it was compiled from" in err
