@@ -20,7 +20,7 @@ from rac.ir import Hardware, Limits, Machine, Model, Name, Node, Publication, Re
 from rac.learn import holdout
 from rac.learn.correlate import Correlation, correlations
 from rac.learn.fields import EULER_FIELDS
-from rac.learn.frequency import RateStats, rate_stats
+from rac.learn.frequency import RateStats, on_demand, rate_stats
 from rac.learn.graph import Exclusions, Graph
 from rac.learn.holdout import HeldOut
 from rac.learn.options import LearnOptions
@@ -369,6 +369,15 @@ def _learn_rates(
                 window_s=None,
                 mismatch_threshold=None,
             )
+        looks = on_demand(topic.name.value, topic.msg_type or data.msg_type)
+        if learned.rate_hz is not None and looks is not None:
+            why = (
+                f"the rate is learned, but {topic.name.value} looks published on demand "
+                f"({looks}): its frequency observer reports a fault whenever the publisher "
+                "is not asked to publish; keep the rate only if it publishes all the time"
+            )
+            notes.append(f"topic {topic.name.value}: {why}")
+            learned = replace(learned, comments=(*learned.comments, why))
         learned_topics.append(learned)
     return learned_topics, rates
 

@@ -91,3 +91,41 @@ def test_run_given_the_model_and_demo_given_the_build_say_what_to_pass(
     assert code == 1
     assert f"{build}: is the directory racc compile wrote, not a model (a .ram" in err
     assert "give the .ram (or .json) it was compiled from" in err
+
+
+def test_a_rate_learned_from_an_on_demand_topic_says_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The demo robot publishes /cmd_vel and /goal (no rate in its model) at a steady 2 Hz:
+    `racc record` then `racc learn` gave them `@ 2 Hz` without a word."""
+    store = get_typestore(Stores.ROS1_NOETIC)
+    bag = tmp_path / "demo.bag"
+    twist = store.types["geometry_msgs/msg/Twist"]
+    vector = store.types["geometry_msgs/msg/Vector3"]
+    floats = store.types["std_msgs/msg/Float64"]
+    with Writer(bag) as writer:
+        cmd = writer.add_connection(
+            "/cmd_vel", "geometry_msgs/msg/Twist", typestore=store, callerid="/teleop"
+        )
+        goal = writer.add_connection(
+            "/goal", "std_msgs/msg/Float64", typestore=store, callerid="/planner"
+        )
+        level = writer.add_connection(
+            "/level", "std_msgs/msg/Float64", typestore=store, callerid="/gauge"
+        )
+        for i in range(120):
+            t = 1_000_000_000 + i * 500_000_000  # 2 Hz, like the demo's event topics
+            move = twist(linear=vector(x=0.1 * (i % 5), y=0.0, z=0.0), angular=vector(0, 0, 0))
+            writer.write(cmd, t, store.serialize_ros1(move, "geometry_msgs/msg/Twist"))
+            value = store.serialize_ros1(floats(data=float(i % 3)), "std_msgs/msg/Float64")
+            writer.write(goal, t + 1000, value)
+            writer.write(level, t + 2000, value)
+    out = tmp_path / "learned.ram"
+    code, _, err = _run(["learn", str(bag), "-o", str(out)], capsys)
+    assert code == 0, err
+    text = out.read_text(encoding="utf-8")
+    assert "topic /cmd_vel: the rate is learned, but /cmd_vel looks published on demand " in err
+    assert "(geometry_msgs/Twist: velocity commands)" in err
+    assert "/goal looks published on demand (named goal: goals)" in err
+    assert "/level looks" not in err
+    assert "# the rate is learned, but /cmd_vel looks published on demand" in text
