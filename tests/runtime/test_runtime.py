@@ -3,6 +3,7 @@ repair executor (with a scripted actuator and clock), the process probe and the 
 
 from __future__ import annotations
 
+import itertools
 import os
 import signal
 import subprocess
@@ -391,3 +392,32 @@ def test_an_observer_host_is_seen_whatever_spelling_of_its_master_it_was_given(
     finally:
         theirs.kill()
         theirs.wait()
+
+
+def test_a_demo_node_sends_no_clump_when_its_first_message_is_slow() -> None:
+    """Issue 38: on ROS 2 the observer host is subscribed before a demo node's first
+    message; the first publication (serializer generated, transport connected) took about
+    0.25 s and the node caught up with a clump of 9 /scan messages, which the host judged
+    too fast: not_ok(scan) and {hokuyo} | {hokuyo_node} for a second, 2 s in."""
+    import types
+
+    from rac.runtime.demo import DemoRunner
+
+    model = load_model(TEDUSAR)
+    now = time.time()
+    demo = DemoNode(model, "hokuyo_node", epoch=now, started=now)
+    sent: list[float] = []
+
+    def publish(topic: object, at: float) -> None:
+        if not sent:
+            time.sleep(0.3)  # the slow first publication
+        sent.append(time.time())
+
+    body = types.SimpleNamespace(stdin=None)
+    runner = DemoRunner(demo, body, publish, lambda rows: None, lambda level, text: None)  # type: ignore[arg-type]
+    start = time.time()
+    while time.time() < start + 0.8:
+        runner.step()
+    gaps = [b - a for a, b in itertools.pairwise(sent)]
+    clumped = sum(1 for g in gaps if g < 0.005)  # /scan is 40 Hz: 25 ms apart
+    assert len(sent) > 10 and clumped <= 1, [round(g * 1000) for g in gaps]
