@@ -204,7 +204,7 @@ COMPILED = Expected(
 )
 ROBOT_LAUNCH = Expected(
     "the robot's own launch file",
-    frozenset({"launch"}),
+    _YAML | {"launch"},  # a YAML launch file is the reader's to refuse
     {
         "demo": "give {path}/robot.launch (ROS 2: {path}/robot.launch.xml)",
         "compiled": "that is racc's own runtime; give the launch file that starts the robot",
