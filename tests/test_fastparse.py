@@ -123,6 +123,7 @@ def test_formatted_random_models(model: object) -> None:
     _same_or_bail(format_model(model))  # type: ignore[arg-type]
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @given(commented_models())
 def test_commented_random_models(model: object) -> None:

@@ -138,6 +138,7 @@ def test_ram_mutants_never_crash(block: int) -> None:
         _clean(lambda text=text: compile_model(parse_ram(text, "m.ram")))
 
 
+@pytest.mark.slow
 def test_json_mutants_never_crash() -> None:
     for seed in range(1500):
         text = make_case("json", seed).text
@@ -203,6 +204,7 @@ _JSON = st.recursive(
 )
 
 
+@pytest.mark.slow
 @_SETTINGS
 @given(_JSON, st.data())
 def test_any_json_values_in_a_model(value: object, data: st.DataObject) -> None:

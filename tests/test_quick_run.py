@@ -55,7 +55,7 @@ def suite(tmp_path: Path) -> Path:
     return tmp_path
 
 
-@pytest.mark.parametrize("workers", ["0", "2"])
+@pytest.mark.parametrize("workers", ["0", pytest.param("2", marks=pytest.mark.slow)])
 def test_the_quick_run_leaves_the_slow_tests_out_and_says_so(suite: Path, workers: str) -> None:
     out = _pytest(suite, "-n", workers)
     assert "2 passed" in out, out
@@ -63,6 +63,7 @@ def test_the_quick_run_leaves_the_slow_tests_out_and_says_so(suite: Path, worker
     assert "quick run: tests marked slow are deselected" in out
 
 
+@pytest.mark.slow
 def test_pytest_m_slow_runs_only_them_and_a_named_test_runs_anyway(suite: Path) -> None:
     out = _pytest(suite, "-n", "0", "-m", "slow", "-v")
     assert "test_example.py::test_slow PASSED" in out and "1 passed" in out, out

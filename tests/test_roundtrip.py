@@ -96,6 +96,7 @@ def test_random_round_trip(model: Model) -> None:
     round_trip(model)
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(commented_models())
 def test_random_fmt_idempotent_and_keeps_comments(model: Model) -> None:

@@ -157,6 +157,7 @@ def _has_matplotlib() -> bool:
     return True
 
 
+@pytest.mark.slow
 def test_the_plot_goes_to_the_file_named_in_the_format_its_suffix_names(
     short_pioneer_run: Path, tmp_path: Path
 ) -> None:

@@ -408,6 +408,7 @@ def test_compile_marks_the_faults_no_observer_detects(tedusar: Model) -> None:
     assert "not analysed" not in caption(text)
 
 
+@pytest.mark.slow
 def test_compile_analyses_up_to_its_node_bound(tedusar: Model) -> None:
     assert compile_undetected(compile_model(tedusar), quiet=True) is not None
     larger = compile_model(big_model(COMPILE_ANALYSIS_UP_TO_NODES + 1))
@@ -651,6 +652,7 @@ def synthetic(n_nodes: int = 50, seed: int = 2) -> Model:
     return Model(Name("synthetic"), hw, tuple(topics), tuple(nodes), related)
 
 
+@pytest.mark.slow
 def test_fifty_node_robot_stays_compact() -> None:
     model = synthetic()
     text = emit(model)
