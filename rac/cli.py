@@ -16,7 +16,7 @@ import sys
 from collections.abc import Sequence
 
 from rac import __version__
-from rac.commands.common import CommandParser
+from rac.commands.common import CommandParser, SuggestingParser
 from rac.errors import RacError
 
 EXIT_OK = 0
@@ -78,7 +78,7 @@ exit codes: 0 done, 1 the input is wrong, 2 the command line is wrong, 3 no repa
 
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     """The parser of every command, or of ``only`` (a command's imports are its own cost)."""
-    parser = argparse.ArgumentParser(
+    parser = SuggestingParser(
         prog="racc",
         description=DESCRIPTION,
         epilog=EPILOG,

@@ -112,10 +112,16 @@ class RacError(Exception):
         return "\n".join(shown)
 
 
+def closest(name: str, candidates: Iterable[str]) -> str | None:
+    """The candidate closest to ``name``, or None when nothing is close."""
+    close = difflib.get_close_matches(name, sorted(set(candidates)), n=1, cutoff=0.6)
+    return close[0] if close else None
+
+
 def did_you_mean(name: str, candidates: Iterable[str]) -> str | None:
     """A hint naming the closest candidate, or None when nothing is close."""
-    close = difflib.get_close_matches(name, sorted(set(candidates)), n=1, cutoff=0.6)
-    return f"did you mean '{close[0]}'?" if close else None
+    close = closest(name, candidates)
+    return f"did you mean '{close}'?" if close else None
 
 
 # The stable codes.  Never renumber: users grep for them and tests pin them.
@@ -230,4 +236,7 @@ CODES: dict[str, str] = {
     "RAC105": "a feedback loop too large for the exact loop rule",
     "RAC106": "part of an imported configuration has no counterpart (note)",
     "RAC107": "the ground truth names another robot",
+    # Usability pass 3 (issue 38).
+    "RAC180": "a name in an imported configuration has white space around it (warning)",
+    "RAC181": "a key of racc place's costs file prices no candidate observer (warning)",
 }

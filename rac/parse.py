@@ -8,22 +8,16 @@ from __future__ import annotations
 import bisect
 import functools
 import math
-import re
+from collections.abc import Iterator
 from dataclasses import replace
 from importlib import resources
 from typing import Any
 
 from lark import Lark, Token, Transformer, Tree, v_args
-from lark.exceptions import (
-    UnexpectedCharacters,
-    UnexpectedEOF,
-    UnexpectedInput,
-    UnexpectedToken,
-    VisitError,
-)
+from lark.exceptions import UnexpectedInput, VisitError
 from lark.tree import Meta
 
-from rac.errors import Diagnostic, RacError, Span, did_you_mean
+from rac.errors import Diagnostic, RacError, Span
 from rac.fastparse import MEM_UNITS, Bail, fast_parse
 from rac.ir import (
     Container,
@@ -41,50 +35,17 @@ from rac.ir import (
 )
 from rac.limits import number_text_problem, ram_number_problems
 from rac.perf import paused_gc
-
-# What each terminal means to a user, for "expected ..." messages.
-_TERMINAL_WORDS = {
-    "NAME": "a name",
-    "FIELD_REF": "a field reference such as /imu_data.yaw",
-    "MSG_TYPE": "a message type such as nav_msgs/Odometry",
-    "FIELD": "a field name",
-    "NUMBER": "a number",
-    "INT": "a whole number",
-    "PLUS_MINUS": "'+-'",
-    "TIME_UNIT": "a time unit (s, ms)",
-    "MEM_UNIT": "a memory unit (B, kB, MB, GB, KiB, MiB, GiB)",
-    "LBRACE": "'{'",
-    "RBRACE": "'}'",
-    "COMMA": "','",
-    "SEMICOLON": "';'",
-    "COLON": "':'",
-    "AT": "'@'",
-    "PERCENT": "'%'",
-    "TILDE": "'~'",
-    "I": "'I(' (an integrated field)",
-    "LPAR": "'('",
-    "RPAR": "')'",
-    "$END": "the end of the file",
-}
+from rac.syntax_errors import (
+    WORD_CHARACTERS,
+    WORD_TERMINALS,
+    glued_keyword_error,
+    span_of_token,
+    syntax_error,
+)
 
 
 def _span(file: str, item: Token | Meta) -> Span:
-    assert item.line is not None and item.column is not None
-    end_line = item.end_line if item.end_line is not None else item.line
-    end_col = item.end_column if item.end_column is not None else item.column + 1
-    return Span(file, item.line, item.column, end_line, end_col)
-
-
-def _words(expected: set[str]) -> str:
-    names = sorted({_TERMINAL_WORDS.get(t, _keyword(t)) for t in expected})
-    if len(names) == 1:
-        return names[0]
-    return ", ".join(names[:-1]) + " or " + names[-1]
-
-
-def _keyword(terminal: str) -> str:
-    """A keyword terminal as the user writes it: ``HZ`` -> ``'Hz'``, ``SEMICOLON`` -> ``';'``."""
-    return f"'{_literals().get(terminal, terminal.lower())}'"
+    return span_of_token(file, item)
 
 
 @functools.cache
@@ -93,144 +54,6 @@ def _literals() -> dict[str, str]:
     return {
         t.name: t.pattern.value for t in _commented_parser().terminals if t.pattern.type == "str"
     }
-
-
-def _keyword_hint(token: Token, expected: set[str]) -> str | None:
-    """Did-you-mean for a misspelt keyword (``subscribe`` for ``subscribes``)."""
-    keywords = [_literals()[t] for t in expected if t in _literals()]
-    return did_you_mean(str(token), [k for k in keywords if k.isalpha()])
-
-
-def _parse_error(err: UnexpectedInput, path: str, text: str) -> Diagnostic:
-    line, column = max(err.line, 1), max(err.column, 1)
-    if isinstance(err, UnexpectedToken) and err.token.type == "$END":
-        line, column = _end_position(text)
-        span = Span(path, line, column, line, column + 1)
-        opened = _open_block(text, len(text)) if "RBRACE" in err.expected else None
-        if opened:
-            message = f"unexpected end of file: {opened} is missing its '}}'"
-            return Diagnostic("RAC002", message, span, hint=f"expected {_words(err.expected)}")
-        return Diagnostic(
-            "RAC002", f"unexpected end of file; expected {_words(err.expected)}", span
-        )
-    if isinstance(err, UnexpectedToken):
-        special = _special_token_error(err, path, text)
-        if special is not None:
-            return special
-        token = err.token
-        span = _span(path, token)
-        message = f"unexpected '{token}'; expected {_words(err.expected)}"
-        return Diagnostic("RAC001", message, span, hint=_keyword_hint(token, err.expected))
-    if isinstance(err, UnexpectedCharacters):
-        span = Span(path, line, column, line, column + 1)
-        pos = err.pos_in_stream
-        char = text[pos] if pos is not None and pos < len(text) else "?"
-        allowed = err.allowed or set()
-        hint = f"expected {_words(allowed)}" if allowed else None
-        return Diagnostic("RAC003", f"unexpected character {char!r}", span, hint=hint)
-    if isinstance(err, UnexpectedEOF):
-        line, column = _end_position(text)
-        span = Span(path, line, column, line, column + 1)
-        return Diagnostic(
-            "RAC002", f"unexpected end of file; expected {_words(set(err.expected))}", span
-        )
-    span = Span(path, line, column, line, column + 1)
-    return Diagnostic("RAC001", "syntax error", span)
-
-
-_DECLARATIONS = ("hardware", "topic", "node", "relate", "interval")
-_UNIT_TERMINALS = {"MEM_UNIT": "a memory unit", "HZ": "'Hz'", "TIME_UNIT": "a time unit"}
-_NUMBER_BEFORE = re.compile(r"[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?\s*$")
-_BLOCK_HEAD = re.compile(r"(?:^|(?<=[\s;}]))(node|topic)\s+([A-Za-z_~/][A-Za-z0-9_~/\-]*)")
-
-
-# The units each unit terminal of the grammar accepts (rac/grammar/ram.lark).
-_UNITS = {
-    "MEM_UNIT": ("GiB", "MiB", "KiB", "GB", "MB", "kB", "KB", "B"),
-    "HZ": ("Hz",),
-    "TIME_UNIT": ("ms", "s"),
-}
-
-
-def _misspelt_unit(word: str, terminals: list[str]) -> str | None:
-    """'did you mean ...?' when ``word`` is an expected unit in another case (`Gb`, `hz`)."""
-    for terminal in terminals:
-        for unit in _UNITS.get(terminal, ()):
-            if word.lower() == unit.lower() and word != unit:
-                return f"did you mean '{unit}'?"
-    return None
-
-
-def _special_token_error(err: UnexpectedToken, path: str, text: str) -> Diagnostic | None:
-    """The syntax errors that read better in words than as 'unexpected X; expected Y'."""
-    token = err.token
-    start = token.start_pos if token.start_pos is not None else 0
-    before = text[:start]
-    # A number without its unit: the parser only notices at the next token, maybe lines on.
-    units = [t for t in err.expected if t in _UNIT_TERMINALS]
-    number = _NUMBER_BEFORE.search(before) if units else None
-    if number is not None:
-        value = number.group().strip()
-        misspelt = _misspelt_unit(str(token), units)
-        if misspelt is not None:  # `1 Gb`, `10 hz`: the unit is there, in the wrong case
-            message = f"unknown unit '{token}': expected {_words(set(err.expected))}"
-            return Diagnostic("RAC001", message, _span(path, token), hint=misspelt)
-        at = _span_of(path, text, number.start(), number.start() + len(value))
-        message = f"the number {value} needs its unit: expected {_words(set(err.expected))}"
-        return Diagnostic(
-            "RAC001", message, at, hint=f"write e.g. '{value} {_unit_example(units)}'"
-        )
-    # `mismatch 2.5`: the whole number ends at the dot, and '.5' is read as the next number.
-    if str(token).startswith(".") and before[-1:].isdigit():
-        digits = len(before) - len(before.rstrip("0123456789"))
-        first = start - digits
-        keyword = before[:first].split()[-1:] or ["this"]
-        whole = text[first : token.end_pos]
-        at = _span_of(path, text, first, first + len(whole))
-        message = f"'{keyword[0]}' takes a whole number, not {whole}"
-        return Diagnostic("RAC001", message, at)
-    # A block left open: the next declaration is where the parser notices.
-    if "RBRACE" in err.expected and str(token) in _DECLARATIONS:
-        opened = _open_block(text, start)
-        if opened:
-            message = f"{opened} is missing its '}}' before this {token}"
-            return Diagnostic("RAC001", message, _span(path, token), hint="add '}' to close it")
-    return None
-
-
-def _unit_example(units: list[str]) -> str:
-    return {"MEM_UNIT": "MB", "HZ": "Hz", "TIME_UNIT": "s"}[sorted(units)[0]]
-
-
-def _span_of(path: str, text: str, start: int, end: int) -> Span:
-    line = text.count("\n", 0, start) + 1
-    column = start - (text.rfind("\n", 0, start) + 1) + 1
-    return Span(path, line, column, line, column + max(1, end - start))
-
-
-def _open_block(text: str, end: int) -> str | None:
-    """The innermost node body or field list still open at ``end``: "node 'x' (line 3)"."""
-    stack: list[int] = []
-    for m in re.finditer(r"#[^\n]*|[{}]", text[:end]):
-        if m.group() == "{":
-            stack.append(m.start())
-        elif m.group() == "}" and stack:
-            stack.pop()
-    if not stack:
-        return None
-    brace = stack[-1]
-    heads = list(_BLOCK_HEAD.finditer(text, 0, brace))
-    if not heads:
-        return None
-    head = heads[-1]
-    line = text.count("\n", 0, head.start()) + 1
-    what = "node" if head.group(1) == "node" else "the field list of topic"
-    return f"{what} '{head.group(2)}' (line {line})"
-
-
-def _end_position(text: str) -> tuple[int, int]:
-    lines = text.rstrip().splitlines() or [""]
-    return len(lines), len(lines[-1]) + 1
 
 
 def parse_ram(text: str, path: str = "<string>") -> Model:
@@ -255,7 +78,11 @@ def _parse_with_lark(text: str, path: str) -> tuple[Model, list[Token]]:
     try:
         tree = _parse_with_comments(text, comments)
     except UnexpectedInput as err:
-        raise RacError([_parse_error(err, path, text)], text) from None
+        raise RacError([syntax_error(err, path, text, _literals())], text) from None
+    except _GluedKeyword as glued:
+        expected = _expected_before(text, glued.token)
+        diagnostic = glued_keyword_error(glued.token, path, text, expected, _literals())
+        raise RacError([diagnostic], text) from None
     try:
         model = _Lower(path).transform(tree)
     except VisitError as err:
@@ -270,21 +97,72 @@ def _parse_with_lark(text: str, path: str) -> tuple[Model, list[Token]]:
 
 def _parse_with_comments(text: str, sink: list[Token]) -> Tree[Token]:
     # A fresh parser per call would be slow; lexer callbacks are bound per parser,
-    # so route comments through a module-level list swapped in for this call.
-    _COMMENT_SINK.append(sink)
+    # so route comments (and the text, for the keyword check) through a module-level
+    # list swapped in for this call.
+    _SOURCES.append((text, sink))
     try:
         return _commented_parser().parse(text)
     finally:
-        _COMMENT_SINK.pop()
+        _SOURCES.pop()
 
 
-_COMMENT_SINK: list[list[Token]] = []
+# (text, comments) of each parse under way, innermost last.
+_SOURCES: list[tuple[str, list[Token]]] = []
 
 
 def _collect_comment(token: Token) -> Token:
-    if _COMMENT_SINK:
-        _COMMENT_SINK[-1].append(token)
+    if _SOURCES:
+        _SOURCES[-1][1].append(token)
     return token
+
+
+class _GluedKeyword(Exception):
+    """A keyword token that is the front of a longer word (``mem`` of ``memory``)."""
+
+    def __init__(self, token: Token) -> None:
+        super().__init__(str(token))
+        self.token = token
+
+
+class _WholeWords:
+    """Keywords are whole words.  Lark's contextual lexer tries only the terminals a state
+    accepts, so where no name may come it would read ``memory`` as ``mem`` then ``ory``, and
+    ``publishes /a fromage`` as ``from age``; the fast parser reads words whole.  A
+    post-lexer (Lark's ``postlex``) that stops at a keyword glued to the letters after it."""
+
+    always_accept: tuple[str, ...] = ()
+
+    def process(self, stream: Iterator[Token]) -> Iterator[Token]:
+        keywords = _keyword_terminals()
+        text = _SOURCES[-1][0] if _SOURCES else ""
+        for token in stream:
+            end = token.end_pos
+            glued = end is not None and end < len(text) and text[end] in WORD_CHARACTERS
+            if glued and token.type in keywords:
+                raise _GluedKeyword(token)
+            yield token
+
+
+def _expected_before(text: str, token: Token) -> set[str]:
+    """The terminals the parser accepts where ``token`` starts."""
+    _SOURCES.append((text, []))
+    try:
+        interactive = _commented_parser().parse_interactive(text[: token.start_pos])
+        interactive.exhaust_lexer()
+        return set(interactive.accepts())  # type: ignore[no-untyped-call]  # Lark's
+    finally:
+        _SOURCES.pop()
+
+
+@functools.cache
+def _keyword_terminals() -> frozenset[str]:
+    """The terminals that are words: the alphabetic string keywords and the unit terminals."""
+    words = [
+        t.name
+        for t in _commented_parser().terminals
+        if t.pattern.type == "str" and t.pattern.value[:1].isalpha()
+    ]
+    return frozenset([*words, *WORD_TERMINALS])
 
 
 @functools.cache
@@ -296,6 +174,7 @@ def _commented_parser() -> Lark:
         propagate_positions=True,
         maybe_placeholders=True,
         lexer_callbacks={"COMMENT": _collect_comment},
+        postlex=_WholeWords(),
     )
 
 

@@ -99,6 +99,7 @@ def test_bad_models(path: Path) -> None:
         _same_or_bail(text)
 
 
+@pytest.mark.slow
 def test_mutants() -> None:
     rng = random.Random(2)
     texts = [ODD, *(p.read_text(encoding="utf-8") for p in MODELS)]
@@ -115,12 +116,14 @@ def test_mutants() -> None:
     assert read > 100  # the fast path is exercised, not only bailed from
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @given(models())
 def test_formatted_random_models(model: object) -> None:
     _same_or_bail(format_model(model))  # type: ignore[arg-type]
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @given(commented_models())
 def test_commented_random_models(model: object) -> None:
@@ -249,3 +252,37 @@ def test_placement_mutants() -> None:
 )
 def test_layouts_only_a_contextual_lexer_reads_take_the_fast_path(text: str) -> None:
     assert _same_or_bail("robot r\n" + text)
+
+
+# Keywords are whole words (issue 38): Lark's contextual lexer read a keyword out of the front
+# of a longer word where no name may come (`fromage` as `from age`, `onboard` as `on board`,
+# `memory` as `mem ory`); the fast path reads words whole and bails.  Both now refuse them.
+@pytest.mark.parametrize(
+    ("text", "word"),
+    [
+        ("node n { subscribes /age; publishes /a fromage }\n", "fromage"),
+        ("machine board\nnode n onboard {}\n", "onboard"),
+        ("topic /a\nnode n { publishes /a; limits cpu 5 %, memory 64 MB }\n", "memory"),
+        ("topic /a @ 10 Hz window 2 sec\nnode n { publishes /a }\n", "sec"),
+        ("hardware h switchablechannel 1\n", "switchablechannel"),
+    ],
+)
+def test_a_keyword_glued_to_a_word_is_no_keyword(text: str, word: str) -> None:
+    text = "robot r\n" + text
+    assert _fast(text) is None
+    assert _lark(text).startswith("error: f.ram:"), _lark(text)
+    assert f"'{word}'" in _lark(text)
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "topic /u{}@.5Hz+-0.1Hz window 2s\nnode n{publishes/u}\n",  # glued to punctuation
+        "node n { publishes /a from /b; subscribes /b }\ntopic /a\ntopic /b\n",
+        "topic /a @ 10 Hz;node n{publishes /a;limits cpu 5%,mem 2MB}\n",
+    ],
+)
+def test_keywords_before_punctuation_and_numbers_still_read(text: str) -> None:
+    text = "robot r\n" + text
+    assert not _lark(text).startswith("error:"), _lark(text)
+    _same_or_bail(text)

@@ -130,6 +130,7 @@ def _clean(call: object) -> None:
         err.render()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("block", range(4))
 def test_ram_mutants_never_crash(block: int) -> None:
     for seed in range(block * 500, block * 500 + 500):
@@ -137,6 +138,7 @@ def test_ram_mutants_never_crash(block: int) -> None:
         _clean(lambda text=text: compile_model(parse_ram(text, "m.ram")))
 
 
+@pytest.mark.slow
 def test_json_mutants_never_crash() -> None:
     for seed in range(1500):
         text = make_case("json", seed).text
@@ -163,6 +165,7 @@ def _base_recordings_removed() -> Iterator[None]:
     remove_base_bags()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", KINDS)
 def test_end_to_end_mutants_outputs_read_back(kind: str, tmp_path: Path) -> None:
     """Through the CLI: every accepted model's outputs parse, model.yaml via racc diagnose."""
@@ -201,6 +204,7 @@ _JSON = st.recursive(
 )
 
 
+@pytest.mark.slow
 @_SETTINGS
 @given(_JSON, st.data())
 def test_any_json_values_in_a_model(value: object, data: st.DataObject) -> None:

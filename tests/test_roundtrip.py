@@ -89,12 +89,14 @@ def test_fmt_keeps_comments_in_place() -> None:
     assert format_model(parse_ram(out)) == out
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(models())
 def test_random_round_trip(model: Model) -> None:
     round_trip(model)
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(commented_models())
 def test_random_fmt_idempotent_and_keeps_comments(model: Model) -> None:
@@ -242,6 +244,7 @@ def _respaced(draw: st.DrawFn) -> str:
     return text
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(_respaced())
 def test_fast_parser_builds_what_lark_builds(text: str) -> None:

@@ -49,3 +49,56 @@ def test_malformed_configuration(
     assert main(["import", "tug", str(bad), "-o", str(tmp_path / "x.ram")]) == 1
     assert "RAC064" in capsys.readouterr().err
     assert not (tmp_path / "x.ram").exists()
+
+
+SLIPS = Path(__file__).parent / "tug" / "knapp_slips.yaml"
+
+
+def test_a_name_with_white_space_around_it_is_trimmed_with_a_warning_at_its_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The real configuration's '/tf ' (issue 38): RAC028 before, and the whole generated
+    model printed to standard error."""
+    out = tmp_path / "paul.ram"
+    assert main(["import", "tug", str(SLIPS), "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    lines = SLIPS.read_text(encoding="utf-8").splitlines()
+    line = next(k for k, text in enumerate(lines, 1) if "pub_topic: [\"/odom\", '/tf '" in text)
+    column = lines[line - 1].index("'/tf '") + 1
+    assert f"{SLIPS}:{line}:{column}: warning[RAC180]: node ose800_can_driver: pub_topic " in err
+    assert "holds '/tf ': the white space around the name is no part of it, read as '/tf'" in err
+    assert "Imported from the tug_diagnosis" not in err  # the model is written, not dumped
+    text = out.read_text(encoding="utf-8")
+    assert f"# import: line {line}: node ose800_can_driver: pub_topic holds '/tf '" in text
+    assert [t for t in text.splitlines() if t.startswith("topic /tf")] == ["topic /tf @ 10 Hz"]
+    nodes = load_theory(str(out)).components
+    assert "ose800_can_driver" in nodes and "sick_front" in nodes
+
+
+def test_an_error_of_the_model_points_at_the_configurations_line_and_dumps_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    config = tmp_path / "tug.yaml"
+    config.write_text(
+        "nodes:\n"
+        "  - name: driver\n"
+        "    pub_topic: ['/scan']\n"
+        "  - name: mapper\n"
+        "    sub_topic: ['/scan']\n"
+        "    pub_topic: ['/map view']\n",
+        encoding="utf-8",
+    )
+    out = tmp_path / "robot.ram"
+    assert main(["import", "tug", str(config), "-o", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert f"{config}:6:17: error[RAC028]: invalid ROS topic name '/map view'" in err
+    assert "   6 |     pub_topic: ['/map view']" in err
+    assert "robot tug" not in err and "node mapper" not in err
+    assert not out.exists()
+
+
+def test_a_malformed_entry_is_located(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    config = tmp_path / "tug.yaml"
+    config.write_text("nodes:\n  - name: a\n  - pub_topic: [/x]\n", encoding="utf-8")
+    assert main(["import", "tug", str(config), "-o", str(tmp_path / "x.ram")]) == 1
+    assert f"{config}:3:5: error[RAC064]: {config}: nodes[1] has no name" in capsys.readouterr().err

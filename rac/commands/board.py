@@ -138,6 +138,7 @@ async def status(args: argparse.Namespace, channels: ChannelMap) -> int:
 async def switch(args: argparse.Namespace, channels: ChannelMap) -> int:
     on = args.state == "on"
     settings = ClientSettings(timeout_s=args.timeout)
+    resolve_target(args.device, channels)  # an unknown device before connecting (RAC092)
     async with BoardClient(parse_address(args.board), settings) as board:
         number = resolve_target(args.device, channels, board.channel_count)
         await board.switch(number, on)

@@ -5,12 +5,13 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import sys
 import textwrap
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NoReturn
 
-from rac.errors import Diagnostic, RacError
+from rac.errors import Diagnostic, RacError, did_you_mean
 
 if TYPE_CHECKING:  # the compiler loads on first use: not every command compiles a model
     from rac.ir import Model
@@ -21,7 +22,24 @@ if TYPE_CHECKING:  # the compiler loads on first use: not every command compiles
 _RUN = "\0"  # joins a run of values: no command-line argument can hold a NUL
 
 
-class CommandParser(argparse.ArgumentParser):
+_INVALID_CHOICE = re.compile(r"invalid choice: '?([^'(]*?)'? \(choose from (.*)\)$")
+
+
+class SuggestingParser(argparse.ArgumentParser):
+    """An argparse parser whose "invalid choice" error says which choice was meant (`racc
+    compil`, `--mode crsh`), as racc's own errors do."""
+
+    def error(self, message: str) -> NoReturn:
+        found = _INVALID_CHOICE.search(message)
+        if found is not None:
+            choices = [c.strip().strip("'") for c in found.group(2).split(",")]
+            close = did_you_mean(found.group(1), choices)
+            if close:
+                message = f"{message}; {close}"
+        super().error(message)
+
+
+class CommandParser(SuggestingParser):
     """A command's parser, linear in an option given thousands of times.
 
     argparse looks at every remaining option string at each option it meets, which is

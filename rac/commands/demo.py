@@ -52,7 +52,9 @@ def register(sub: Any) -> None:
         "the package installed in the prefix DIR/ros2, and the processes the launch file names "
         "started directly (as ros2 launch would). Faults KIND@T[+D]:TARGET, T seconds "
         "after the start: crash@T:node, freq@T:/topic, slip@T:/odom, cpu@T:node, mem@T:node, "
-        "trip@T:device. Needs ROS 1 and a running master (roscore), or ROS 2 (rclpy).",
+        "trip@T:device. Needs ROS 1 (roslaunch starts a master when none answers at "
+        "ROS_MASTER_URI; start roscore first for one that outlives the demo), or ROS 2 "
+        "(rclpy).",
         "  racc demo models/tedusar.ram -o /tmp/demo\n"
         "  racc demo models/tedusar.ram -o /tmp/demo --fault crash@30:jaguar_node\n"
         "  racc run build/tedusar --robot-launch /tmp/demo/robot.launch board:=127.0.0.1:7000\n"

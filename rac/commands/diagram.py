@@ -17,7 +17,7 @@ from rac.commands.common import add_command, count, load_and_compile
 from rac.commands.options import add_max_card_option, add_observation_options
 from rac.commands.reports import diagnosis_title, undetected_faults
 from rac.diagnosis.theory import theory_of
-from rac.errors import Diagnostic, RacError
+from rac.errors import Diagnostic, RacError, closest
 from rac.load.drawing import (
     check_suffix,
     write_diagram,
@@ -296,13 +296,19 @@ def _named_diagnosis(compiled: Compiled, text: str) -> tuple[str, ...]:
     names = tuple(p.strip() for p in text.split(",") if p.strip())
     unknown = [n for n in names if n not in known]
     if unknown or not names:
+        fixed = [closest(n, set(known.values())) or n if n in unknown else n for n in names]
+        hint = (
+            f"did you mean '{','.join(fixed)}'?"
+            if fixed != list(names)
+            else "name nodes or hardware of the model, comma-separated"
+        )
         raise RacError(
             [
                 Diagnostic(
                     "RAC067",
                     f"--diagnosis {text}: "
                     + (f"no component named {', '.join(unknown)}" if unknown else "names nothing"),
-                    hint="name nodes or hardware of the model, comma-separated",
+                    hint=hint,
                 )
             ]
         )

@@ -14,7 +14,8 @@ from rac.commands.options import add_replay_options
 from rac.errors import Diagnostic, RacError
 from rac.evaluate.evaluation import Candidate
 from rac.ir import Model
-from rac.load.output import write_file_atomically
+from rac.load.kinds import RECORDING, check_kind
+from rac.load.output import check_output_file, write_file_atomically
 
 
 def _number(text: str) -> float:
@@ -126,6 +127,9 @@ def run(args: argparse.Namespace) -> int:
     from rac.replay.load import load_runs, needs_of, properties_for, truth_for
 
     _check(args)
+    check_output_file(args.output)
+    for run in [*args.runs, *(args.learn_from or ())]:
+        check_kind(run, RECORDING, "RAC080")
     candidates = _given(args.models) if args.models else _learned(args, quiet=args.quiet)
     needs = needs_of([c.model for c in candidates])
     models = [c.model.theory.model for c in candidates if c.model.theory.model is not None]

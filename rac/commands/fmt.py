@@ -12,6 +12,7 @@ from rac.commands.common import add_command
 from rac.errors import Diagnostic, RacError
 from rac.fmt import format_model
 from rac.load.files import read_text
+from rac.load.kinds import RAM_FILE, check_kind
 from rac.load.output import write_file_atomically
 from rac.parse import parse_ram
 
@@ -44,13 +45,17 @@ def _require_ram(names: list[str]) -> None:
     language, and a .json or model.yaml would otherwise be a syntax error at its first
     character (or, formatted, lose its own format)."""
     wrong = [n for n in names if n.endswith((".json", ".yaml", ".yml"))]
-    if wrong:
-        raise RacError(
-            [
-                Diagnostic("RAC060", f"{n}: racc fmt formats .ram files only", hint=_hint(n))
-                for n in wrong
-            ]
-        )
+    found = [
+        Diagnostic("RAC060", f"{n}: racc fmt formats .ram files only", hint=_hint(n)) for n in wrong
+    ]
+    for n in names:  # a directory, a recording: what it is, and what fmt takes
+        if n not in wrong:
+            try:
+                check_kind(n, RAM_FILE, "RAC060")
+            except RacError as err:
+                found.extend(err.diagnostics)
+    if found:
+        raise RacError(found)
 
 
 def _hint(name: str) -> str:

@@ -7,11 +7,11 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from rac.commands.common import add_command, count
+from rac.commands.common import add_command, count, print_warnings
 from rac.commands.options import rate_hz
-from rac.errors import RacError
+from rac.errors import Diagnostic, RacError
 from rac.fmt import format_model
-from rac.load.output import write_file_atomically
+from rac.load.output import check_output_file, write_file_atomically
 from rac.load.tug import load_tug
 from rac.pipeline import compile_model
 from rac.tug import DEFAULT_RATE_HZ
@@ -49,20 +49,21 @@ def register(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     name = args.name or Path(args.config).stem
+    check_output_file(args.output)
     imported = load_tug(args.config, name, args.default_rate)
     model = imported.model
-    text = format_model(model)
+    # The model's names carry their spans in the configuration: an error of the model is
+    # shown at the configuration's line, and the generated text is never dumped.
     try:
         compiled = compile_model(model)
     except RacError as err:
-        print(text, file=sys.stderr)
-        raise err
-    for d in imported.diagnostics():
-        print(d.render(), file=sys.stderr)
-    for d in compiled.warnings:
-        print(d.render(), file=sys.stderr)
+        raise RacError(err.diagnostics, imported.source) from None
+    print_warnings(imported.diagnostics(), imported.source)
+    print_warnings(compiled.warnings, imported.source)
+    text = format_model(model)
     body = text.split("\n", len(model.comments))
-    notes = "".join(f"# import: {n}\n" for n in imported.notes)
+    corrected = [f"{_where(d)}{d.message}" for d in imported.warnings]
+    notes = "".join(f"# import: {n}\n" for n in [*corrected, *imported.notes])
     out = "\n".join(body[: len(model.comments)]) + "\n" + notes + body[-1]
     write_file_atomically(Path(args.output), out)
     print(
@@ -72,3 +73,7 @@ def run(args: argparse.Namespace) -> int:
         file=sys.stderr,
     )
     return 0
+
+
+def _where(d: Diagnostic) -> str:
+    return f"line {d.span.line}: " if d.span is not None else ""

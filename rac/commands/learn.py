@@ -22,7 +22,8 @@ from rac.learn.options import (
     DEFAULT_SIGMAS,
     DEFAULT_SIGNIFICANCE,
 )
-from rac.load.output import write_file_atomically
+from rac.load.kinds import RECORDING, check_kind
+from rac.load.output import check_output_file, write_file_atomically
 from rac.pipeline import compile_model
 
 
@@ -199,6 +200,10 @@ def run(args: argparse.Namespace) -> int:
     from rac.load.recorded import load_graph, load_properties
 
     _check_options(args)
+    check_output_file(args.output)
+    check_output_file(args.report, "--report")
+    for run in args.runs:  # before the base and graph: what each path is, at once
+        check_kind(run, RECORDING, "RAC080")
     base = load_checked(args.base) if args.base else None
     graph = load_graph(args.graph) if args.graph else None
     properties = []

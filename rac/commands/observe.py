@@ -8,7 +8,7 @@ from typing import Any
 
 from rac.commands.common import add_command, add_ros_option, ros_version
 from rac.commands.options import add_secret_option, rate_hz
-from rac.errors import Diagnostic, RacError
+from rac.errors import Diagnostic, RacError, did_you_mean
 from rac.load.files import load_observer_file
 from rac.load.secret import load_secret
 from rac.observe import ObserverBank
@@ -89,8 +89,8 @@ def run(args: argparse.Namespace) -> int:
                     "RAC140",
                     f"{args.observers}: no observer runs on machine '{machine}' (machines: "
                     f"{known})",
-                    hint="give a machine the model declares ('machine NAME'), or leave "
-                    "--machine out",
+                    hint=did_you_mean(machine, machines_of(specs))
+                    or "give a machine the model declares ('machine NAME'), or leave --machine out",
                 )
             ]
         )

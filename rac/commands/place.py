@@ -6,16 +6,18 @@ import argparse
 import difflib
 import math
 import sys
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from rac.analysis.place import Placement, place
-from rac.commands.common import add_command, json_text
+from rac.analysis.place import DEFAULT_COSTS, Candidate, Placement, place
+from rac.commands.common import add_command, json_text, print_warnings
 from rac.diagnosis.modes import MODES
+from rac.errors import Diagnostic, Severity, did_you_mean
 from rac.fmt import format_model
 from rac.load.costs import load_costs
 from rac.load.files import load_model
-from rac.load.output import write_file_atomically
+from rac.load.output import check_output_file, write_file_atomically
 from rac.load.theory import load_theory
 
 
@@ -130,11 +132,34 @@ def summary(p: Placement) -> str:
     return "\n".join(lines)
 
 
+def unused_costs(
+    path: str, costs: Mapping[str, float], candidates: Sequence[Candidate]
+) -> tuple[Diagnostic, ...]:
+    """RAC181 for each key of the costs file that prices no candidate: a misspelt name
+    (``GObs /mapp``) would otherwise leave its observer at the default cost, silently."""
+    known = set(DEFAULT_COSTS) | {c.key for c in candidates}
+    known |= {f"{c.kind} {c.key}" for c in candidates}
+    found = []
+    for key in costs:
+        if key in known:
+            continue
+        message = f"{path}: '{key}' prices no candidate observer of this model and mode"
+        hint = did_you_mean(key, known) or (
+            "keys are an observer kind (GObs), a candidate (/map, 'node cpu') or both "
+            "('GObs /map'); the candidates are in racc place --json"
+        )
+        found.append(Diagnostic("RAC181", message, severity=Severity.WARNING, hint=hint))
+    return tuple(found)
+
+
 def run(args: argparse.Namespace) -> int:
+    check_output_file(args.output)
     theory = load_theory(args.model)
     learned = load_model(args.candidates) if args.candidates else None
     costs = load_costs(args.costs) if args.costs else None
     placement = place(theory, args.mode, args.budget, learned, costs)
+    if costs and not args.quiet:
+        print_warnings(unused_costs(args.costs, costs, placement.candidates), None)
     text = patch_text(args.model, placement)
     if args.json:
         doc = {

@@ -8,8 +8,9 @@ from typing import Any
 
 from rac.commands.common import add_command, add_ros_option, ros_version
 from rac.commands.options import add_secret_option
-from rac.errors import Diagnostic, RacError
+from rac.errors import Diagnostic, RacError, did_you_mean
 from rac.load.files import load_observers
+from rac.load.kinds import OBSERVERS, ROBOT_LAUNCH, check_kind
 from rac.load.secret import load_secret
 from rac.load.theory import load_theory, robot_name
 from rac.logic import mangle
@@ -222,18 +223,31 @@ def run(args: argparse.Namespace) -> int:
     settings = settings_from(args)
     theory = load_theory(args.model)
     ros = ros_version(args)
+    if args.launch:
+        check_kind(args.launch, ROBOT_LAUNCH, "RAC117" if ros == 2 else "RAC059")
+    if args.observers:
+        check_kind(args.observers, OBSERVERS, "RAC056")
+    observers = args.observers or str(Path(args.model).parent / "observers.yaml")
+    placements, machines = where(observers)
+    if args.machine and Path(observers).is_file() and args.machine not in machines:  # no ROS yet
+        known = ", ".join(machines) or "none"
+        message = f"{observers}: the model has no machine '{args.machine}' (machines: {known})"
+        hint = did_you_mean(args.machine, machines) or (
+            "give a machine the model declares ('machine NAME'), or leave --machine out"
+        )
+        raise RacError([Diagnostic("RAC140", message, hint=hint)])
     if args.launch and ros == 2:
         from rac.ros2.launch import load_launch
 
         load_launch(args.launch)  # RAC117 before any ROS work
     elif args.launch:
         from rac.ros1.actuator import load_launch_nodes
+        from rac.ros1.common import require_ros
 
+        require_ros()  # RAC057 without ROS 1 (roslaunch reads the file)
         load_launch_nodes(args.launch)  # RAC059 before any ROS work
-    observers = args.observers or str(Path(args.model).parent / "observers.yaml")
     args.launch = args.launch or None  # the compiled launch file passes "--launch=" for none
     nodes, devices = names(observers)
-    placements, machines = where(observers)
     job = RepairJob(
         theory,
         robot_name(theory, args.model),

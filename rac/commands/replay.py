@@ -13,7 +13,8 @@ from rac.commands.common import add_command, checked_truth, load_and_compile
 from rac.commands.options import add_replay_options
 from rac.commands.reports import draw_health
 from rac.load.drawing import check_suffix
-from rac.load.output import write_file_atomically
+from rac.load.kinds import PROPERTIES, RECORDING, check_kind
+from rac.load.output import check_output_file, write_file_atomically
 
 
 def register(sub: Any) -> None:
@@ -96,7 +97,12 @@ def run(args: argparse.Namespace) -> int:
         require_matplotlib()
     if args.diagram_at is not None:
         check_suffix(args.diagram)  # before the replay, not after it
+    check_output_file(args.output)
+    for run in args.runs:
+        check_kind(run, RECORDING, "RAC080")
     compiled = load_and_compile(args.model, quiet=args.quiet)
+    for given in args.properties or ():
+        check_kind(given, PROPERTIES, "RAC082")
     model = replayable(compiled)
     truth_notes: list[str] = []
     truth = truth_for(args.runs, args.truth, truth_notes)

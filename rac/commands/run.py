@@ -10,6 +10,7 @@ from typing import Any
 
 from rac.commands.common import CommandParser, add_command, add_ros_option, ros_version
 from rac.errors import Diagnostic, RacError
+from rac.load.kinds import COMPILED, ROBOT_LAUNCH, check_kind
 from rac.runtime.launcher import (
     Supervisor,
     describe_arguments,
@@ -83,6 +84,7 @@ def register(sub: Any) -> None:
 
 def launch_file(directory: Path, ros: int) -> Path:
     """DIR's launch file for ``ros`` (or DIR itself when it is a file)."""
+    check_kind(directory, COMPILED, "RAC130")
     if directory.is_file():
         return directory
     path = directory / LAUNCH_FILES[ros]
@@ -108,6 +110,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     given = list(args.assignments)
     if args.robot_launch is not None:
+        check_kind(args.robot_launch, ROBOT_LAUNCH, "RAC130")
         given.append(f"robot_launch:={Path(args.robot_launch).resolve()}")
     arguments = parse_assignments(path, declared, given)
     if ros == 2:

@@ -15,7 +15,7 @@ from typing import Any
 
 from rac.commands.common import add_command, load_checked
 from rac.commands.common import count as plural
-from rac.errors import Diagnostic, RacError
+from rac.errors import Diagnostic, RacError, did_you_mean
 from rac.synth.faults import FAULT_KINDS, FAULT_SPEC, Fault, parse_fault
 from rac.synth.schedule import (
     MIN_FAULT_S,
@@ -38,7 +38,12 @@ def fault_arg(text: str) -> str:
     match = FAULT_SPEC.fullmatch(text.strip())
     if match is None or match["kind"] not in FAULT_KINDS:
         kinds = ", ".join(FAULT_KINDS)
-        raise argparse.ArgumentTypeError(f"'{text}' is not KIND@T[+D]:TARGET with KIND in {kinds}")
+        kind = text.strip().partition("@")[0]
+        close = did_you_mean(kind, FAULT_KINDS) if kind not in FAULT_KINDS else None
+        said = f"; {close}" if close else ""
+        raise argparse.ArgumentTypeError(
+            f"'{text}' is not KIND@T[+D]:TARGET with KIND in {kinds}{said}"
+        )
     return text
 
 

@@ -20,7 +20,7 @@ from rac.ir import Hardware, Limits, Machine, Model, Name, Node, Publication, Re
 from rac.learn import holdout
 from rac.learn.correlate import Correlation, correlations
 from rac.learn.fields import EULER_FIELDS
-from rac.learn.frequency import RateStats, rate_stats
+from rac.learn.frequency import RateStats, on_demand, rate_stats
 from rac.learn.graph import Exclusions, Graph
 from rac.learn.holdout import HeldOut
 from rac.learn.options import LearnOptions
@@ -223,6 +223,21 @@ def _structure_from_recording(recording: Recording) -> list[Node]:
     ]
 
 
+def _why_no_publishers(recording: Recording) -> str:
+    """Why a recording names no publishing node, by the ROS version of its runs."""
+    versions = {r.ros_version for r in recording.runs}
+    ros2 = "ROS 2 bags do not record them"
+    ros1 = (
+        "its ROS 1 connections carry no callerid: the bag was written by a converter or a "
+        "library, not by rosbag record"
+    )
+    if versions == {2}:
+        return ros2
+    if versions == {1}:
+        return ros1
+    return f"{ros2}, and {ros1.removeprefix('its ')}"
+
+
 def _topic_from_recording(data: TopicData) -> Topic:
     """The recorded topic with its varying fields: a constant signal relates to nothing."""
     return Topic(Name(data.name), data.msg_type, tuple(Name(f) for f in varying_fields(data)))
@@ -293,8 +308,9 @@ def _structure(
         )
         if not nodes:
             notes.append(
-                "the recording names no publishers (ROS 2 bags do not record them): the model "
-                "has no nodes, so no rates or relations can be declared; they are in comments"
+                f"the recording names no publishers ({_why_no_publishers(recording)}): the "
+                "model has no nodes, so no rates or relations can be declared; they are in "
+                "comments"
             )
     topics = [_topic_from_recording(recorded[n]) for n in sorted(recorded)]
     known = set(recorded)
@@ -353,6 +369,15 @@ def _learn_rates(
                 window_s=None,
                 mismatch_threshold=None,
             )
+        looks = on_demand(topic.name.value, topic.msg_type or data.msg_type)
+        if learned.rate_hz is not None and looks is not None:
+            why = (
+                f"the rate is learned, but {topic.name.value} looks published on demand "
+                f"({looks}): its frequency observer reports a fault whenever the publisher "
+                "is not asked to publish; keep the rate only if it publishes all the time"
+            )
+            notes.append(f"topic {topic.name.value}: {why}")
+            learned = replace(learned, comments=(*learned.comments, why))
         learned_topics.append(learned)
     return learned_topics, rates
 

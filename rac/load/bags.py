@@ -26,6 +26,7 @@ from rac.learn.raw import row_reader
 from rac.learn.recording import WRAPPING, Recording, Run, TopicData, merge_runs
 from rac.limits import check_yaml_limits
 from rac.load.files import read_text
+from rac.load.kinds import RECORDING, check_kind
 
 # What a damaged bag raises while its messages are read: rosbags' own errors, the
 # struct/index/assert failures of its parsers meeting corrupt bytes, SQLite's (through apsw)
@@ -80,6 +81,7 @@ def read_run(
 ) -> Run:
     """Every topic of one recording (or only ``topics``), with the fields ``selector`` wants."""
     p = Path(path)
+    check_kind(path, RECORDING, "RAC080")
     try:
         if not p.exists():  # inside: a name too long for the file system raises here
             raise _fail(str(path), "no such file or directory")
@@ -133,6 +135,9 @@ def _damage(err: Exception, path: Path) -> str:
     if isinstance(err, KeyError | IndexError | AssertionError) and str(err):
         # Their text alone is a bare key or index ("'sensor_msgs/msg/Imu'").
         why = f"damaged or inconsistent ({type(err).__name__}: {err})"
+    elif isinstance(err, UnicodeDecodeError):  # Python's "'utf-8' codec can't decode ..."
+        byte = err.object[err.start : err.start + 1].hex() or "?"
+        why = f"damaged: a name or text in it is not UTF-8 (byte 0x{byte})"
     elif isinstance(err, OverflowError):  # "cannot fit 'int' into an index-sized integer"
         why = f"a length in it is damaged (OverflowError: {err})"
     elif isinstance(err, apsw.Error):

@@ -7,10 +7,12 @@ import yaml
 from rac.errors import Diagnostic, RacError
 from rac.limits import safe_yaml, yaml_error_diagnostic
 from rac.load.files import read_text
+from rac.load.kinds import COSTS, check_kind
 
 
 def load_costs(path: str) -> dict[str, float]:
     """Observer kind, candidate or watched name -> a positive cost (RAC062 otherwise)."""
+    check_kind(path, COSTS, "RAC062")
     text = read_text(path)
     try:
         doc = safe_yaml(text, path)

@@ -13,6 +13,7 @@ import yaml
 
 from rac.errors import Diagnostic, RacError, Span
 from rac.limits import MAX_INPUT_BYTES, safe_yaml, yaml_error_diagnostic
+from rac.load.kinds import MODEL, OBSERVERS, check_kind, kind_of
 from rac.logic import parse_atom
 from rac.perf import paused_gc
 
@@ -31,7 +32,11 @@ def read_text(path: str | Path, code: str = "RAC004") -> str:
     except FileNotFoundError:
         raise RacError([Diagnostic(code, f"{path}: no such file")]) from None
     except IsADirectoryError:
-        raise RacError([Diagnostic(code, f"{path}: is a directory, not a file")]) from None
+        what = kind_of(path).what
+        message = f"{path}: is a directory, not a file" + (
+            f" ({what})" if what != "a directory" else ""
+        )
+        raise RacError([Diagnostic(code, message)]) from None
     except OSError as err:
         raise RacError([Diagnostic(code, f"{path}: cannot read: {err}")]) from None
     if len(data) > MAX_INPUT_BYTES:
@@ -93,6 +98,7 @@ def load_model(path: str | Path) -> Model:
     from rac.interchange import parse_json
     from rac.parse import parse_ram
 
+    check_kind(path, MODEL, "RAC004")
     if str(path).endswith((".yaml", ".yml")):
         # A model server file holds clauses only: without this, the .ram parser's
         # "unexpected 'ab'; expected 'robot'" would be all the user learns.
@@ -135,6 +141,7 @@ def load_observer_file(path: str | Path) -> ObserverFile:
     RAC056 when the file is not of that shape; an observer's parameters are checked later,
     when the observer core builds it (RAC050/RAC051).
     """
+    check_kind(path, OBSERVERS, "RAC056")
     text = read_text(path)
 
     hint = "give the observers.yaml that 'racc compile' wrote"

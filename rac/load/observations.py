@@ -9,6 +9,7 @@ from rac.diagnosis.result import compile_theory
 from rac.diagnosis.theory import Literal, Theory, collect, literal_at
 from rac.errors import Diagnostic, RacError
 from rac.load.files import read_text
+from rac.load.kinds import OBSERVATIONS, check_kind
 from rac.logic import COMPACT_ATOM, Atom
 from rac.perf import paused_gc
 
@@ -84,6 +85,7 @@ def read_observations(sources: Sources, theory: Theory) -> tuple[Literal, ...]:
         if kind == "obs":
             literals.append(literal_at(value, theory, None, known))
         else:
+            check_kind(value, OBSERVATIONS, "RAC004")
             literals.extend(parse_observations(read_text(value), value, theory, known))
     return collect(literals)
 
@@ -101,6 +103,7 @@ def read_observed_ids(sources: Sources, theory: Theory) -> list[int]:
         if kind == "obs":
             observed.append(index.literal_atom(literal_at(value, theory, None, known)))
             continue
+        check_kind(value, OBSERVATIONS, "RAC004")
         text = read_text(value)
         lines = plain_lines(text)
         fast = index.plain_ids(lines) if lines is not None else None

@@ -166,6 +166,14 @@ def _default_dir_mode() -> int:
     return 0o777 & ~mask
 
 
+def check_output_file(path: str | None, option: str = "-o") -> None:
+    """RAC004 before a command's work when the file it is to write names a directory (it
+    would fail only at the end, after minutes of learning or replay)."""
+    if path is not None and Path(path).is_dir():
+        message = f"{path}: is a directory; {option} takes the name of a file to write"
+        raise RacError([Diagnostic("RAC004", message, hint=f"e.g. {Path(path) / 'NAME'}")])
+
+
 def write_file_atomically(path: Path, content: str | bytes) -> None:
     """Replace one file atomically (a temp file beside it, then a rename)."""
     path = resolved_path(path)

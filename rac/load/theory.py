@@ -7,12 +7,14 @@ from pathlib import Path
 
 from rac.diagnosis.theory import Theory, theory_of
 from rac.load.files import load_model, read_text
+from rac.load.kinds import THEORY, check_kind
 from rac.load.model_yaml import parse_model_yaml
 from rac.logic import mangle
 
 
 def load_theory(path: str) -> Theory:
     """A theory from a ``.ram``/``.json`` model (compiled) or a ``.yaml``/``.yml`` file."""
+    check_kind(path, THEORY, "RAC004")
     if path.endswith((".yaml", ".yml")):
         return parse_model_yaml(read_text(path), path)
     # On first use, for start-up time: `racc diagnose model.yaml` never loads the compiler.

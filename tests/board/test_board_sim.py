@@ -211,6 +211,7 @@ def test_hostile_frames_get_ack_1_or_2_and_others_are_still_served() -> None:
     run(test)
 
 
+@pytest.mark.slow
 def test_a_client_that_floods_without_reading_is_dropped(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(sim_module, "DRAIN_TIMEOUT_S", 0.3)
 

@@ -61,6 +61,7 @@ def run(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, str, str]:
 # --- help and version -------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_console_script_help_and_version() -> None:
     done = racc("--help")
     assert done.returncode == 0

@@ -66,7 +66,7 @@ def test_an_observation_file_that_is_a_directory_is_no_model_file(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     assert main(["diagnose", TEDUSAR, "--obs-file", str(tmp_path)]) == 1
-    assert f"{tmp_path}: is a directory, not a file" in capsys.readouterr().err
+    assert f"{tmp_path}: is a directory, not an observations file" in capsys.readouterr().err
 
 
 def test_record_without_ros_1_is_an_input_error_not_a_crash(

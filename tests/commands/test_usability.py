@@ -96,6 +96,7 @@ def test_power_up_starts_publishers_before_their_subscribers(name: str) -> None:
 OBS = ["--obs", "on(jaguar)", "--obs", "running(jaguar_node)", "--obs", "not ok(pose)"]
 
 
+@pytest.mark.slow
 def test_repair_says_the_plan_was_validated(capsys: pytest.CaptureFixture[str]) -> None:
     code, out, _ = _run(["repair", TEDUSAR, *OBS, "--validate"], capsys)
     assert code == 0 and "plan validated" in out

@@ -40,6 +40,7 @@ def test_fmt_hints_a_command_that_works_and_none_for_model_yaml(
     assert code == 1 and "racc export" not in err and "compiled from" in err
 
 
+@pytest.mark.slow
 def test_diagnose_reads_the_model_yaml_compile_writes_for_50000_nodes(tmp_path: Path) -> None:
     """model.yaml of a 50,000-node robot is 19.6 MB, beyond the YAML composer's 16 MiB
     limit: it is read line by line, as racc writes it (RAC009 before)."""
@@ -199,6 +200,7 @@ def crash_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return run
 
 
+@pytest.mark.slow
 def test_a_faults_file_without_robot_and_duration_is_used(
     crash_run: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -213,6 +215,7 @@ def test_a_faults_file_without_robot_and_duration_is_used(
     assert "fault crash joy_node 10-29.9" in out and "reported at" in out
 
 
+@pytest.mark.slow
 def test_replay_goes_on_without_an_unusable_faults_file(
     crash_run: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -262,6 +265,7 @@ def test_simulate_explains_a_fault_not_isolated_without_an_ambiguity_group() -> 
     )
 
 
+@pytest.mark.slow
 def test_replay_says_why_it_replays_fewer_messages_than_recorded(
     crash_run: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from itertools import combinations
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -149,6 +150,7 @@ def _agree(theory: Theory, obs: tuple[Literal, ...]) -> None:
         assert set(d) | set(result.good(d)) == set(theory.components)
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None)
 @given(theories(fault_modes=False), observations)
 def test_agrees_with_brute_force_on_correct_behaviour_models(
@@ -157,6 +159,7 @@ def test_agrees_with_brute_force_on_correct_behaviour_models(
     _agree(theory, obs)
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None)
 @given(theories(fault_modes=True), observations)
 def test_agrees_with_brute_force_with_fault_modes(theory: Theory, obs: tuple[Literal, ...]) -> None:

@@ -266,6 +266,7 @@ def _model_texts(draw: st.DrawFn) -> str:
     return "\n".join(lines) + end
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(_model_texts())
 def test_generated_layouts_read_and_number_as_the_general_path(text: str) -> None:

@@ -28,6 +28,7 @@ from rac.diagnosis.theory import components_of
 from rac.logic import Atom, Clause
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None)
 @given(st.booleans().flatmap(theories), observations, st.randoms(use_true_random=False))
 def test_necessary_matches_a_fixpoint_per_left_out_assumption(

@@ -75,6 +75,7 @@ def theories(draw: st.DrawFn) -> Theory:
     return Theory(unique, props, (*components_of(unique), *extra))
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(theories())
 def test_every_atom_is_numbered_once_with_its_complement(theory: Theory) -> None:

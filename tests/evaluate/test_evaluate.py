@@ -41,6 +41,7 @@ def _evaluate(args: list[str], capsys: pytest.CaptureFixture[str]) -> dict[str, 
     return doc
 
 
+@pytest.mark.slow
 def test_the_shortened_pioneer_reproduction(
     runs: dict[str, str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -68,6 +69,7 @@ def test_the_shortened_pioneer_reproduction(
         assert not [fp for fp in m["false_positives"] if fp["run"] == runs["clean"]], m
 
 
+@pytest.mark.slow
 def test_given_models_and_the_text_report(
     runs: dict[str, str], capsys: pytest.CaptureFixture[str]
 ) -> None:

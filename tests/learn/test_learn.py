@@ -146,6 +146,7 @@ def test_learns_the_same_from_a_ros2_mcap_bag(tmp_path: Path) -> None:
     _check_learned(tedusar, _learn(tedusar, _read(tedusar, run)))
 
 
+@pytest.mark.slow
 def test_learns_from_two_merged_runs(
     robot: Robot,
     ros1_run: Path,

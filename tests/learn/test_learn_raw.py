@@ -247,6 +247,7 @@ def _on_random_messages(test: Callable[..., None]) -> Callable[..., None]:
     return marked
 
 
+@pytest.mark.slow
 @_on_random_messages
 def test_the_walk_reads_what_deserialization_reads(ros: int, data: st.DataObject) -> None:
     store, typename, layout, message = _drawn(data, ros)
@@ -270,6 +271,7 @@ def _damage(data: st.DataObject, message: bytes) -> bytes:
     return message[:at] + bytes([data.draw(st.integers(0, 255))]) + message[at + 1 :]
 
 
+@pytest.mark.slow
 @_on_random_messages
 def test_a_damaged_message_fails_as_deserialization_fails(ros: int, data: st.DataObject) -> None:
     """Whatever the damage, the reader gives deserialization's row or its very error."""
@@ -335,6 +337,7 @@ def test_angles_per_column_are_the_angles_per_message(q: list[float]) -> None:
     assert _bits(per_message) == per_column[0].tobytes() == per_column[1].tobytes()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ros", [1, 2])
 def test_a_bench_recording_reads_the_same_both_ways(
     ros: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch

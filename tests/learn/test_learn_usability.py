@@ -62,6 +62,7 @@ def _export(path: Path) -> str:
     return out.getvalue()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("make_base", [_fieldless_ram, _fieldless_json], ids=["ram", "json"])
 def test_a_fieldless_base_still_finds_the_yaw_relation(
     make_base: object, run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]

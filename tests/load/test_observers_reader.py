@@ -44,6 +44,7 @@ def _written(model: Model, tmp_path: Path) -> tuple[Path, str]:
     return path, text
 
 
+@pytest.mark.slow
 def test_the_observers_yaml_compile_writes_for_50000_nodes_is_read(tmp_path: Path) -> None:
     """33.8 MB, beyond the YAML limit: RAC009 before; now the observers compile derived."""
     compiled = compile_model(_synthetic(50_000))
@@ -56,6 +57,7 @@ def test_the_observers_yaml_compile_writes_for_50000_nodes_is_read(tmp_path: Pat
     assert specs == compiled.observers
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model", ["tedusar", "pioneer", "warehouse", "synthetic 2000"])
 def test_the_fast_reader_gives_the_yaml_paths_specs(
     model: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
@@ -253,6 +255,7 @@ _SCALARS = st.one_of(
 )
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     st.lists(st.tuples(_SCALARS, _SCALARS, _SCALARS, _SCALARS, _SCALARS), min_size=1, max_size=4)
@@ -282,6 +285,7 @@ _VALUES = st.one_of(
 )
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None)
 @example(entries=[("_", {"on": 0}, ["ok(_)"])])  # declined, and read the YAML way
 @given(

@@ -11,6 +11,7 @@ import math
 from collections import defaultdict
 from collections.abc import Iterator
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from ram_strategies import models
@@ -178,6 +179,7 @@ def damaged_models(draw: st.DrawFn) -> Model:
     )  # fmt: skip
 
 
+@pytest.mark.slow
 @settings(max_examples=400, deadline=None)
 @given(damaged_models())
 def test_the_fast_rules_report_what_the_straightforward_ones_do(model: Model) -> None:

@@ -41,6 +41,7 @@ def foreign(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     return bag, csv
 
 
+@pytest.mark.slow
 def test_a_recording_not_made_by_racc_finds_each_culprit(
     foreign: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -76,6 +77,7 @@ def test_a_recording_not_made_by_racc_finds_each_culprit(
             assert not r.literal.startswith("not_"), r
 
 
+@pytest.mark.slow
 def test_the_thesis_schedule_is_replayed_against_its_ground_truth(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -155,6 +157,7 @@ def _has_matplotlib() -> bool:
     return True
 
 
+@pytest.mark.slow
 def test_the_plot_goes_to_the_file_named_in_the_format_its_suffix_names(
     short_pioneer_run: Path, tmp_path: Path
 ) -> None:
@@ -187,6 +190,7 @@ def test_plot_without_matplotlib_fails_before_the_replay(
     assert "error[RAC055]: --plot needs matplotlib" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_a_properties_csv_with_cr_only_line_endings_reads_as_with_lf(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -149,6 +149,7 @@ def test_board_measurements_feed_the_hardware_observers(tmp_path: Path) -> None:
     assert states[5].t == pytest.approx(5.0)
 
 
+@pytest.mark.slow
 def test_a_synth_trip_is_replayed_and_blamed_on_its_device(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -42,6 +42,7 @@ def shared_data(name: str) -> Path:
     pytest.skip(f"the real recordings (../shared/data/{name}) are not beside the project")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("text", "bag", "atoms"),
     [

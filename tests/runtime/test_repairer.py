@@ -260,6 +260,7 @@ def _crash_and_repair(rig: Rig, node: str) -> None:
             return
 
 
+@pytest.mark.slow
 def test_repairs_of_one_component_back_off_then_escalate_on_its_budget(theory: Theory) -> None:
     rig = Rig(theory, budget=3, budget_window_s=600.0, backoff_s=10.0)
     rig.healthy()
@@ -285,6 +286,7 @@ def test_repairs_of_one_component_back_off_then_escalate_on_its_budget(theory: T
     assert len(rig.robot.calls) == 4
 
 
+@pytest.mark.slow
 def test_two_healthy_nodes_alternating_stop_at_their_budgets(theory: Theory) -> None:
     # On false positives the repairer looped: 8 plans in 70 s alternating between two
     # healthy nodes, each restart "working".  Each node's budget ends it.

@@ -3,6 +3,7 @@ repair executor (with a scripted actuator and clock), the process probe and the 
 
 from __future__ import annotations
 
+import itertools
 import os
 import signal
 import subprocess
@@ -351,3 +352,72 @@ def test_robot_name_of_a_compiled_model_yaml_is_the_models_not_its_directorys(
     assert robot_name(load_theory(path), path) == "tedusar"
     (out / "model.yaml").write_text(text.split("\n", 1)[1], encoding="utf-8")
     assert robot_name(load_theory(path), path) == "build"
+
+
+def test_one_master_is_one_graph_however_its_uri_is_spelled() -> None:
+    """Issue 38: roslaunch gives the demo's nodes ROS_MASTER_URI=http://localhost:11311/;
+    `racc run` on a stock Debian has none, so @+T faults never fired."""
+    from rac.runtime.demo import ros_graph
+
+    default = ros_graph({})
+    assert ros_graph({"ROS_MASTER_URI": "http://localhost:11311/"}) == default
+    assert ros_graph({"ROS_MASTER_URI": "http://127.0.0.1:11311"}) == default
+    assert ros_graph({"ROS_MASTER_URI": " http://LOCALHOST:11311/ ", "ROS_DOMAIN_ID": ""}) == (
+        default
+    )
+    assert ros_graph({"ROS_DOMAIN_ID": "0"}) == default
+    assert ros_graph({"ROS_MASTER_URI": "http://localhost:11312/"}) != default
+    assert ros_graph({"ROS_MASTER_URI": "http://robot1:11311/"}) != default
+    assert ros_graph({"ROS_DOMAIN_ID": "38"}) != default
+    assert ros_graph({"ROS_MASTER_URI": "not a uri"}) != default
+
+
+def test_an_observer_host_is_seen_whatever_spelling_of_its_master_it_was_given(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from live_procs import free_port
+
+    port = free_port()  # a master no other process names
+    monkeypatch.setenv("ROS_MASTER_URI", f"http://127.0.0.1:{port}")
+    assert observer_host_started() is None
+    host = [sys.executable, "-c", "import time; time.sleep(30)", "__name:=racc_observer"]
+    theirs = subprocess.Popen(
+        host, env={**os.environ, "ROS_MASTER_URI": f"http://localhost:{port}/"}
+    )
+    try:
+        deadline = time.time() + 10
+        while observer_host_started() is None and time.time() < deadline:
+            time.sleep(0.1)
+        assert observer_host_started() == psutil.Process(theirs.pid).create_time()
+    finally:
+        theirs.kill()
+        theirs.wait()
+
+
+def test_a_demo_node_sends_no_clump_when_its_first_message_is_slow() -> None:
+    """Issue 38: on ROS 2 the observer host is subscribed before a demo node's first
+    message; the first publication (serializer generated, transport connected) took about
+    0.25 s and the node caught up with a clump of 9 /scan messages, which the host judged
+    too fast: not_ok(scan) and {hokuyo} | {hokuyo_node} for a second, 2 s in."""
+    import types
+
+    from rac.runtime.demo import DemoRunner
+
+    model = load_model(TEDUSAR)
+    now = time.time()
+    demo = DemoNode(model, "hokuyo_node", epoch=now, started=now)
+    sent: list[float] = []
+
+    def publish(topic: object, at: float) -> None:
+        if not sent:
+            time.sleep(0.3)  # the slow first publication
+        sent.append(time.time())
+
+    body = types.SimpleNamespace(stdin=None)
+    runner = DemoRunner(demo, body, publish, lambda rows: None, lambda level, text: None)  # type: ignore[arg-type]
+    start = time.time()
+    while time.time() < start + 0.8:
+        runner.step()
+    gaps = [b - a for a, b in itertools.pairwise(sent)]
+    clumped = sum(1 for g in gaps if g < 0.005)  # /scan is 40 Hz: 25 ms apart
+    assert len(sent) > 10 and clumped <= 1, [round(g * 1000) for g in gaps]

@@ -114,6 +114,7 @@ def test_servo_follows_the_imu_pitch(clean_bag: Path) -> None:
     assert np.ptp(angle) > 0.05
 
 
+@pytest.mark.slow
 def test_faults_show_in_the_recording_and_the_properties(faulty_bag: Path) -> None:
     topics = _all_fields(faulty_bag).topic_by_name()
     pose, imu = topics["/pose"], topics["/imu_data"]

@@ -246,6 +246,7 @@ def test_kinds_without_a_target_are_skipped_with_a_note(
     assert [f.kind for f in load_truth(tmp_path / "bare.faults.yaml").faults] == ["mem", "freq"]
 
 
+@pytest.mark.slow
 def test_schedule_combines_with_explicit_faults(tmp_path: Path) -> None:
     out = tmp_path / "both.bag"
     args = ["synth", str(TEDUSAR), "-o", str(out), "--duration", "240", "-q"]

@@ -142,6 +142,7 @@ def test_compile_writes_the_summary_of_a_large_model_and_says_so(
     assert '"/a0/n0"' in out and "group:" not in out
 
 
+@pytest.mark.slow
 def test_replay_draws_the_diagnosis_at_a_moment(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -161,6 +162,7 @@ def test_replay_draws_the_diagnosis_at_a_moment(
     assert "#e53935" in sick or "#ffb74d" in sick  # diagnosed
 
 
+@pytest.mark.slow
 def test_the_text_is_the_same_whatever_the_hash_seed() -> None:
     import os
     import subprocess

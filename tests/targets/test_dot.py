@@ -307,6 +307,7 @@ def test_parallel_topics_share_one_arrow_and_a_long_list_is_cut() -> None:
     assert "/t6 (m/M, 5 Hz)" in drawn['"p"', '"s"'].tooltip
 
 
+@pytest.mark.slow
 def test_nodes_are_clustered_by_namespace_below_the_shared_prefix(warehouse: Model) -> None:
     """The topic view clusters the namespaces; the node view (the warehouse's default) names
     them in each node's name: around clusters, Graphviz routed arrows through nodes."""
@@ -353,6 +354,7 @@ def graph_attrs(text: str) -> dict[str, str]:
     return attrs(parse(text).get_node("graph")[0])
 
 
+@pytest.mark.slow
 def test_namespaces_make_the_drawing_compact(tedusar: Model, warehouse: Model) -> None:
     """Several namespace clusters: top-down, rounded boxes, one line of details; a robot
     without namespaces keeps Figure 3.1's left-to-right ellipses, and so does --all."""
@@ -386,6 +388,7 @@ def test_compile_marks_the_faults_no_observer_detects(tedusar: Model) -> None:
     assert "not analysed" not in caption(text)
 
 
+@pytest.mark.slow
 def test_compile_analyses_up_to_its_node_bound(tedusar: Model) -> None:
     assert compile_undetected(compile_model(tedusar), quiet=True) is not None
     larger = compile_model(big_model(COMPILE_ANALYSIS_UP_TO_NODES + 1))
@@ -637,6 +640,7 @@ def synthetic(n_nodes: int = 50, seed: int = 2) -> Model:
     return Model(Name("synthetic"), hw, tuple(topics), tuple(nodes), related)
 
 
+@pytest.mark.slow
 def test_fifty_node_robot_stays_compact() -> None:
     model = synthetic()
     text = emit(model)

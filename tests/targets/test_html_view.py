@@ -136,6 +136,7 @@ def test_a_real_browser_searches_and_shows_a_tooltip(tmp_path: Path) -> None:
     assert "xlink:title" not in node[: node.index("</g>")]
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not HAVE_DOT, reason="Graphviz dot is not installed")
 @pytest.mark.skipif(CHROMIUM is None, reason="chromium is not installed (.ci/run installs it)")
 def test_a_topic_on_an_arrow_is_found_and_nothing_says_so(tmp_path: Path) -> None:

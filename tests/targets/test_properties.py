@@ -87,6 +87,7 @@ def dot_node_names(graph: Any) -> set[str]:
     return names
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(models())
 def test_random_models_compile_and_every_output_parses(model: Model) -> None:

@@ -469,6 +469,7 @@ def test_corner_cases_of_section_3() -> None:
 # --- random valid models ---------------------------------------------------------------------
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(models())
 def test_random_models_hold_exactly_the_contract_clauses(model: Any) -> None:
