@@ -243,6 +243,7 @@ def test_a_namespace_opens_with_its_neighbours_as_boxes(
     assert code == 1 and "error[RAC066]" in err and "did you mean /robot_41/localization" in err
 
 
+@pytest.mark.slow
 def test_a_300_node_robot_gets_the_summary_and_its_namespaces_open(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
