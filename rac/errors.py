@@ -218,6 +218,8 @@ CODES: dict[str, str] = {
     "RAC141": "a machine declared twice",
     "RAC142": "an invalid machine or container name",
     "RAC143": "a node cannot be restarted on its machine or in its container",
+    "RAC155": "a node's old process is still alive and could not be stopped (never two copies)",
+    "RAC156": "a node's old process may run where racc cannot stop it (never two copies)",
     "RAC100": "subscribed topic has no publisher",
     "RAC101": "hardware driven by no node",
     "RAC102": "node with no topics",

@@ -7,7 +7,7 @@ import math
 from typing import Any
 
 from rac.commands.common import add_command, add_ros_option, ros_version
-from rac.commands.options import rate_hz
+from rac.commands.options import add_robot_gone_option, rate_hz
 from rac.errors import Diagnostic, RacError
 from rac.load.files import load_observers
 from rac.observe import ObserverBank
@@ -70,6 +70,7 @@ def register(sub: Any) -> None:
         help="with --machine: the launch file the agent restarts this machine's nodes from "
         "(default: none; nodes in containers are restarted by their container)",
     )
+    add_robot_gone_option(parser)
     add_ros_option(parser)
     parser.set_defaults(run=run)
 
@@ -104,5 +105,6 @@ def run(args: argparse.Namespace) -> int:
         machine=machine,
         launch=args.launch or None,
         settle_s=args.settle,
+        robot_gone_s=args.robot_gone,
     )
     return 0

@@ -12,6 +12,7 @@ from typing import Any
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec
 from rac.ros1.agent import start_agent
 from rac.ros1.common import Ros1Bus, connection_type, node_liveness
+from rac.runtime.guardian import DEFAULT_GONE_S
 from rac.runtime.host import ObserverHost
 from rac.runtime.nodes import run_observer_node
 from rac.runtime.procs import DEFAULT_SETTLE_S, ProcessProbe
@@ -28,6 +29,7 @@ def run_observe(
     machine: str | None = None,
     launch: str | None = None,
     settle_s: float = DEFAULT_SETTLE_S,
+    robot_gone_s: float = DEFAULT_GONE_S,
 ) -> None:
     bus = Ros1Bus(name)
     rospy = bus.rospy
@@ -35,7 +37,7 @@ def run_observe(
 
     host = ObserverHost(specs)
     host.source = bus.name
-    agent = start_agent(bus, specs, machine, launch)
+    agent = start_agent(bus, specs, machine, launch, robot_gone_s)
     bank = host.bank
     readers = Readers(bank.topic_fields())
 

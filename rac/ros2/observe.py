@@ -17,6 +17,7 @@ from typing import Any
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec
 from rac.ros2.agent import start_agent
 from rac.ros2.common import PidResolver, Session, graph_nodes, message_class, sensor_qos
+from rac.runtime.guardian import DEFAULT_GONE_S
 from rac.runtime.host import ObserverHost
 from rac.runtime.nodes import run_observer_node
 from rac.runtime.procs import DEFAULT_SETTLE_S, ProcessProbe
@@ -35,6 +36,7 @@ def run_observe(
     machine: str | None = None,
     launch: str | None = None,
     settle_s: float = DEFAULT_SETTLE_S,
+    robot_gone_s: float = DEFAULT_GONE_S,
 ) -> None:
     session = Session(name)
     from diagnostic_msgs.msg import DiagnosticArray
@@ -42,7 +44,7 @@ def run_observe(
     node = session.node
     host = ObserverHost(specs)
     host.source = session.name
-    agent = start_agent(session, specs, machine, launch)
+    agent = start_agent(session, specs, machine, launch, robot_gone_s)
     bank = host.bank
     readers = Readers(bank.topic_fields(), ros_version=2)
     wanted = frozenset(bank.topic_fields())
