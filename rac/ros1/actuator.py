@@ -8,7 +8,7 @@ import os
 import signal
 import threading
 import xmlrpc.client
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 from urllib.parse import urlparse
@@ -110,7 +110,7 @@ class Ros1Actuator:
             cwd = os.getcwd()
         else:
             cwd = rospkg.get_ros_home()
-        copies, unseen = self.old_copies(node)
+        copies, unseen = self.old_copies(node, env)
         stopped = prove_gone(node, copies, unseen)
         lifetime = Lifetime(
             launch=launch_process(self.launch_file),
@@ -121,12 +121,14 @@ class Ros1Actuator:
         note = started_note(pid, log, f"rosnode kill /{node.lstrip('/')}", lifetime)
         return f"{stopped}; {note}" if stopped else note
 
-    def old_copies(self, node: str) -> tuple[list[Copy], list[str]]:
+    def old_copies(
+        self, node: str, env: Mapping[str, str] | None = None
+    ) -> tuple[list[Copy], list[str]]:
         """Every live process that may be ``node`` (:mod:`rac.runtime.onecopy`): the one
         racc started, local processes naming it, the local process holding the XML-RPC
         port the master has for it; and why any other cannot be stopped from here (the
         master has it on another machine and its server answers, or does not answer)."""
-        copies, unseen = local_copies(node, 1, self.detached.pid(node))
+        copies, unseen = local_copies(node, 1, self.detached.pid(node), env)
         try:
             uri = node_uri(node)
         except (OSError, xmlrpc.client.Error):

@@ -69,7 +69,8 @@ class Ros2Actuator:
     def start_node(self, node: str) -> str:
         args, env = self._command(node)
         with self.detached.starting:
-            copies, unseen = local_copies(node, 2, self.detached.pid(node))
+            env = {**os.environ, **env}
+            copies, unseen = local_copies(node, 2, self.detached.pid(node), env)
             stopped = prove_gone(node, copies, unseen)
             lifetime = Lifetime(
                 launch=launch_process(self.launch_file),

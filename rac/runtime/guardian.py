@@ -13,8 +13,8 @@ stops:
 - ROS 1: the robot's master has accepted no connection for ``gone_s`` (a master restart of
   a few seconds does not stop the node);
 - ROS 2: none of the robot's other local nodes (a process whose command line says
-  ``__node:=`` one of their names, not started by racc) has run for ``gone_s``, once one was
-  seen.
+  ``__node:=`` one of their names, in the node's ROS 2 domain, not started by racc) has run
+  for ``gone_s``: once one was seen, or from the start when no launch process was found.
 
 Stopping is SIGINT to the node's session, then SIGTERM, then SIGKILL (:data:`STOP_STEPS`).
 The guardian exits when its node exits, whatever ended it; SIGTERM, SIGINT or SIGHUP to the
@@ -84,18 +84,24 @@ def remaps_node(cmdline: Sequence[str], base: str, ns: str) -> bool:
     return (spaces[-1] if spaces else "/").rstrip("/") == wanted.rstrip("/")
 
 
-def guarded(pid: int | str) -> bool:
-    """The process is a node racc started (or its child): its environment names a guardian."""
+def environ(pid: int | str) -> dict[str, str] | None:
+    """The environment a process started with (None: not ours to read, or gone)."""
     try:
         with open(f"/proc/{pid}/environ", "rb") as f:
-            return (GUARDIAN_ENV + "=").encode() in f.read()
+            raw = f.read()
     except OSError:
-        return False
+        return None
+    pairs = (entry.decode("utf-8", "replace").partition("=") for entry in raw.split(b"\0"))
+    return {k: v for k, _, v in pairs if k}
 
 
-def node_pids(names: Sequence[str], exclude: frozenset[int] = frozenset()) -> dict[int, int]:
+def node_pids(
+    names: Sequence[str], domain: str | None = None, exclude: frozenset[int] = frozenset()
+) -> dict[int, int]:
     """Live processes (pid -> start) of this machine whose command line names one of the ROS
-    2 nodes ``names`` ("ns/name" or "name"), but for racc's guarded ones and ``exclude``."""
+    2 nodes ``names`` ("ns/name" or "name"), in the ROS 2 domain ``domain`` (None: any),
+    but for racc's guarded ones and ``exclude``.  A process whose environment cannot be read
+    counts."""
     wanted = [(n.strip("/").rpartition("/")[2], n.strip("/").rpartition("/")[0]) for n in names]
     found: dict[int, int] = {}
     try:
@@ -108,10 +114,17 @@ def node_pids(names: Sequence[str], exclude: frozenset[int] = frozenset()) -> di
         line = command_line(entry)
         if not any(a.startswith("__node:=") for a in line):
             continue
-        if any(remaps_node(line, base, ns) for base, ns in wanted) and not guarded(entry):
-            start = process_start(int(entry))
-            if start is not None:
-                found[int(entry)] = start
+        if not any(remaps_node(line, base, ns) for base, ns in wanted):
+            continue
+        env = environ(entry)
+        if env is not None and (
+            GUARDIAN_ENV in env
+            or (domain is not None and (env.get("ROS_DOMAIN_ID") or "0") != domain)
+        ):
+            continue  # a node racc started, or a node of another robot's domain
+        start = process_start(int(entry))
+        if start is not None:
+            found[int(entry)] = start
     return found
 
 
@@ -154,6 +167,7 @@ class Orders:
         "master_uri",
         "node",
         "others",
+        "others_from_start",
         "poll_s",
         "slow_poll_s",
         "stop_steps",
@@ -171,6 +185,7 @@ class Orders:
         launch_what: str = "",  # e.g. "roslaunch of /robot/robot.launch"
         master_uri: str | None = None,  # ROS 1
         others: Sequence[str] = (),  # ROS 2: the robot's other nodes
+        others_from_start: bool = False,  # count their absence from the start
         gone_s: float = DEFAULT_GONE_S,
         stop_steps: Sequence[tuple[int, float]] = STOP_STEPS,
         poll_s: float = POLL_S,
@@ -186,6 +201,7 @@ class Orders:
         self.launch_what = launch_what
         self.master_uri = master_uri
         self.others = tuple(others)
+        self.others_from_start = bool(others_from_start)
         self.gone_s = float(gone_s)
         self.stop_steps = tuple((int(sig), float(wait)) for sig, wait in stop_steps)
         self.poll_s = float(poll_s)
@@ -212,14 +228,17 @@ class Watch:
         orders: Orders,
         now: float,
         master: Callable[[str], bool] = master_answers,
-        nodes: Callable[[Sequence[str]], dict[int, int]] = node_pids,
+        nodes: Callable[[Sequence[str], str | None], dict[int, int]] = node_pids,
         start_of: Callable[[int], int | None] = process_start,
     ) -> None:
         self.orders = orders
         self.master, self.nodes, self.start_of = master, nodes, start_of
         self.master_seen = now  # the master was there when racc started the node
         self.others: dict[int, int] = {}  # the robot's other nodes seen running: pid -> start
-        self.others_seen: float | None = None  # when one last ran (None: never seen)
+        # When one last ran (None: never seen, and the absence is not counted).  Without a
+        # launch process the absence counts from the start: a node started while none of
+        # the robot runs here (a repair racing the robot's shutdown) must not run forever.
+        self.others_seen: float | None = now if orders.others_from_start else None
         self._next_slow = now
 
     def why_stop(self, now: float) -> str | None:
@@ -246,7 +265,7 @@ class Watch:
         # The ones seen before, while one still runs: no scan of the process table.
         self.others = {p: s for p, s in self.others.items() if self.start_of(p) == s}
         if not self.others:
-            self.others = self.nodes(o.others)
+            self.others = self.nodes(o.others, o.env.get("ROS_DOMAIN_ID") or "0")
         if self.others:
             self.others_seen = now
             return None
@@ -266,7 +285,8 @@ class Watch:
         if o.master_uri is not None:
             out.append(f"the ROS master at {o.master_uri} is gone for {o.gone_s:g} s")
         if o.others:
-            out.append(f"none of the robot's other nodes has run here for {o.gone_s:g} s")
+            since = " (counted from now)" if o.others_from_start else ""
+            out.append(f"none of the robot's other nodes has run here for {o.gone_s:g} s{since}")
         return "; or ".join(out) or "nothing (no launch process, master or other node known)"
 
 

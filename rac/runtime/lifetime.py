@@ -67,6 +67,7 @@ class Lifetime:
             launch_what=launch.what if launch else "",
             master_uri=self.master_uri,
             others=tuple(o for o in self.others if o.strip("/") != node.strip("/")),
+            others_from_start=launch is None,
             gone_s=self.gone_s,
         )
 
@@ -83,6 +84,9 @@ class Lifetime:
 
 
 # -- the robot's launch process -----------------------------------------------------------------
+
+
+LAUNCHERS = frozenset({"roslaunch", "ros2", "launch", "racc", "python", "python3"})
 
 
 def _launcher(cmdline: Sequence[str]) -> str | None:
@@ -115,43 +119,57 @@ def _resolved(path: str, cwd: str | None) -> str:
     return os.path.realpath(os.path.join(cwd or "/", os.path.expanduser(path)))
 
 
-def _holds_launch(proc: psutil.Process, kind: str, cmdline: Sequence[str], target: str) -> bool:
+def _holds_launch(proc: psutil.Process, kind: str, cmdline: Sequence[str], target: str) -> int:
+    """How surely the process runs the launch file ``target``: 2 its command line names the
+    file (a path, resolved against its working directory), 1 its name only, after a package
+    (``roslaunch PKG FILE``, ``ros2 launch PKG FILE``), 0 not at all."""
     name = os.path.basename(target)
     candidates = [a for a in cmdline if os.path.basename(a) == name]
     if kind == "racc demo":
         out = _demo_output(cmdline)
         if out is None or name not in ("robot.launch", "robot.launch.xml"):
-            return False
+            return 0
         candidates = [os.path.join(out, name)]
     if not candidates:
-        return False
+        return 0
     try:
         cwd = proc.cwd()
     except psutil.Error:
         cwd = None
-    return any(_resolved(a, cwd) == target for a in candidates)
+    if any(_resolved(a, cwd) == target for a in candidates):
+        return 2
+    if kind != "racc demo" and name in cmdline:
+        i = list(cmdline).index(name)
+        before = cmdline[i - 1] if i > 0 else ""
+        if before and not before.startswith("-") and os.path.basename(before) not in LAUNCHERS:
+            return 1
+    return 0
 
 
 def launch_process(launch_file: str | None) -> LaunchProcess | None:
     """The process that runs the robot's launch file on this machine: ``roslaunch FILE``,
-    ``ros2 launch FILE`` or ``racc demo -o DIR`` (whose robot.launch it wrote and runs).
-    Of several, the outermost (racc demo before the roslaunch it started), then the
-    newest.  None without a launch file, or when none runs here (the robot was started
-    otherwise, or on another machine)."""
+    ``ros2 launch FILE`` or ``racc demo -o DIR`` (whose robot.launch it wrote and runs);
+    ``roslaunch PKG FILE`` by the file's name when no process names its path.  Of several,
+    the outermost (racc demo before the roslaunch it started), then the newest.  None
+    without a launch file, or when none runs here (the robot was started otherwise, or on
+    another machine)."""
     if not launch_file:
         return None
     target = os.path.realpath(launch_file)
-    found: list[tuple[psutil.Process, str]] = []
+    found: list[tuple[psutil.Process, str, int]] = []
     for proc in psutil.process_iter(["cmdline"]):
         cmdline = proc.info["cmdline"] or []
         if proc.pid == os.getpid():
             continue
         kind = _launcher(cmdline)
-        if kind is not None and _holds_launch(proc, kind, cmdline, target):
-            found.append((proc, kind))
-    pids = {p.pid for p, _ in found}
+        sure = _holds_launch(proc, kind, cmdline, target) if kind is not None else 0
+        if kind is not None and sure:
+            found.append((proc, kind, sure))
+    best = max((sure for _, _, sure in found), default=0)
+    found = [f for f in found if f[2] == best]
+    pids = {p.pid for p, _, _ in found}
     outer = []
-    for proc, kind in found:
+    for proc, kind, _ in found:
         try:
             ancestors = {a.pid for a in proc.parents()}
         except psutil.Error:

@@ -20,13 +20,19 @@ from __future__ import annotations
 import os
 import signal
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import psutil
 
 from rac.errors import Diagnostic, RacError
-from rac.runtime.placement import in_own_pid_namespace, on_this_host, ros1_named
+from rac.runtime.placement import (
+    in_graph,
+    in_own_pid_namespace,
+    on_this_host,
+    ros1_named,
+    ros_graph,
+)
 from rac.runtime.procs import node_processes, outermost
 
 # (signal, seconds to wait after it): short enough that the whole stop stays within the
@@ -51,15 +57,23 @@ def names_another_node(cmdline: Sequence[str], node: str) -> bool:
     return bool(named) and base not in named
 
 
-def local_copies(node: str, ros: int, started: int | None) -> tuple[list[Copy], list[str]]:
+def local_copies(
+    node: str, ros: int, started: int | None, env: Mapping[str, str] | None = None
+) -> tuple[list[Copy], list[str]]:
     """The live processes of ``node`` on this machine that can be stopped from here (the
     pid racc ``started``, processes whose command line names the node), and why each other
-    one cannot (a process of another PID or network namespace)."""
+    one cannot (a process of another PID or network namespace).  A process of another ROS
+    graph than the node's environment ``env`` says (another master or domain) is another
+    robot's: not a copy."""
     copies: list[Copy] = []
     unseen: list[str] = []
     if started is not None:
         copies.append(Copy(started, "racc started it", session=True))
-    named = node_processes(node) if ros == 2 else ros1_named(node, unreadable=True)
+    graph = ros_graph(os.environ if env is None else env, ros)
+    if ros == 2:
+        named = [p for p in node_processes(node) if in_graph(p, 2, graph, p.info["cmdline"])]
+    else:
+        named = ros1_named(node, unreadable=True, graph=graph)
     for proc in named:
         pid = proc.pid
         if pid == os.getpid() or any(c.pid == pid for c in copies):

@@ -16,13 +16,15 @@ a pid alone proves nothing.
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Sequence
+import socket
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 import psutil
 
 from rac.logic import Atom
 from rac.passes.observers import ObserverSpec
+from rac.runtime.guardian import host_port
 
 
 @dataclass(frozen=True, slots=True)
@@ -175,7 +177,7 @@ def silent_ros1(node: str, port: int | None) -> Found | None:
     pid = listening_pid(port) if port is not None else None
     if pid is not None and in_own_pid_namespace(pid) and on_this_host(pid):
         return Found(pid, f"{why}; pid {pid} holds its XML-RPC port {port}")
-    named = ros1_named(node, unreadable=False)
+    named = ros1_named(node, unreadable=False, graph=ros_graph(os.environ, 1))
     pids = {p.pid for p in named}
     outer = [p for p in named if not (_parents(p) & (pids - {p.pid}))]
     if len(outer) != 1:  # none, or several nodes of that name (namespaces): no proof
@@ -200,15 +202,46 @@ def _namespace(proc: psutil.Process, cmdline: Sequence[str]) -> str | None:
         return None
 
 
-def ros1_named(node: str, unreadable: bool) -> list[psutil.Process]:
+def ros_graph(env: Mapping[str, str], ros: int, cmdline: Sequence[str] = ()) -> str:
+    """The ROS graph of a process with this environment and command line: its master (ROS
+    1: ``__master:=``, else ROS_MASTER_URI; every name of this machine counts as one) or its
+    domain (ROS 2: ROS_DOMAIN_ID).  Two graphs on one machine may have nodes of one name."""
+    if ros == 2:
+        return f"domain {env.get('ROS_DOMAIN_ID') or '0'}"
+    masters = [a.partition(":=")[2] for a in cmdline if a.startswith("__master:=")]
+    uri = masters[-1] if masters else env.get("ROS_MASTER_URI") or "http://localhost:11311"
+    address = host_port(uri)
+    if address is None:
+        return f"master {uri}"
+    host, port = address
+    local = host in ("localhost", "::1", socket.gethostname()) or host.startswith("127.")
+    return f"master {'this machine' if local else host}:{port}"
+
+
+def in_graph(proc: psutil.Process, ros: int, graph: str | None, cmdline: Sequence[str]) -> bool:
+    """The process is of the ROS graph ``graph`` (:func:`ros_graph`; None: any), or its
+    environment cannot be read (then it may be)."""
+    if graph is None:
+        return True
+    try:
+        env = proc.environ()
+    except psutil.Error:
+        return True
+    return ros_graph(env, ros, cmdline) == graph
+
+
+def ros1_named(node: str, unreadable: bool, graph: str | None = None) -> list[psutil.Process]:
     """Live processes whose command line names the ROS 1 node ``ns/name`` (``__name:=``)
-    in its namespace; ``unreadable``: and those whose namespace cannot be read."""
+    in its namespace (and its ROS graph, :func:`ros_graph`); ``unreadable``: and those whose
+    namespace cannot be read."""
     ns, _, base = node.strip("/").rpartition("/")
     wanted = "/" + ns
     out = []
     for proc in psutil.process_iter(["cmdline", "status"]):
         line = proc.info["cmdline"] or []
         if f"__name:={base}" not in line or proc.info["status"] == psutil.STATUS_ZOMBIE:
+            continue
+        if not in_graph(proc, 1, graph, line):
             continue
         space = _namespace(proc, line)
         if (space is None and unreadable) or (

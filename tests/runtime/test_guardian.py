@@ -169,13 +169,14 @@ def test_the_node_stops_once_the_master_is_gone_longer_than_the_bound(
     started: Started, master: FakeMaster, tmp_path: Path
 ) -> None:
     log = tmp_path / "talker.log"
-    _, pid = started.guard(log, Lifetime(master_uri=master.uri, gone_s=1.0))
+    guardian, pid = started.guard(log, Lifetime(master_uri=master.uri, gone_s=1.0))
     time.sleep(1.5)
     assert _alive(pid)  # the master answers
     master.close()
     took = _wait(lambda: not _alive(pid), 6)
     assert took is not None, log.read_text()
     assert 0.9 <= took <= 3.0, took
+    assert guardian.wait(5) == 0
     assert "the ROS master at" in log.read_text() and "has been gone" in log.read_text()
 
 
@@ -214,16 +215,22 @@ def test_the_master_bound_counts_from_the_last_answer() -> None:
 def test_the_node_stops_when_the_robots_other_nodes_are_all_gone(
     started: Started, tmp_path: Path
 ) -> None:
-    listener = started.sleeper("--ros-args", "-r", "__node:=listener")
-    camera = started.sleeper("--ros-args", "-r", "__node:=camera", "-r", "__ns:=/front")
+    # Names of this test run alone: other runs share the machine's process table.
+    lst, cam, mapper = (f"{n}_{os.getpid()}" for n in ("listener", "camera", "mapper"))
+    listener = started.sleeper("--ros-args", "-r", f"__node:={lst}")
+    camera = started.sleeper("--ros-args", "-r", f"__node:={cam}", "-r", "__ns:=/front")
     # A node racc started (it names a guardian) is no sign of the robot.
-    started.sleeper("--ros-args", "-r", "__node:=mapper", env={**os.environ, GUARDIAN_ENV: "1"})
-    assert _wait(lambda: listener.pid in node_pids(["listener"]), 5) is not None
-    assert camera.pid in node_pids(["front/camera"]) and not node_pids(["camera"])
-    assert not node_pids(["mapper"])
+    started.sleeper("--ros-args", "-r", f"__node:={mapper}", env={**os.environ, GUARDIAN_ENV: "1"})
+    # Another robot's listener, in another ROS 2 domain, is no sign of this robot.
+    started.sleeper("--ros-args", "-r", f"__node:={lst}", env={**os.environ, "ROS_DOMAIN_ID": "97"})
+    domain = os.environ.get("ROS_DOMAIN_ID") or "0"
+    assert _wait(lambda: listener.pid in node_pids([lst], domain), 5) is not None
+    assert list(node_pids([lst], domain)) == [listener.pid]
+    assert camera.pid in node_pids([f"front/{cam}"]) and not node_pids([cam])
+    assert not node_pids([mapper])
     log = tmp_path / "talker.log"
-    lifetime = Lifetime(others=("listener", "front/camera", "mapper", "talker"), gone_s=1.0)
-    _, pid = started.guard(log, lifetime)
+    lifetime = Lifetime(others=(lst, f"front/{cam}", mapper, "talker"), gone_s=1.0)
+    guardian, pid = started.guard(log, lifetime)
     listener.kill()
     listener.wait(5)
     time.sleep(1.5)
@@ -231,13 +238,23 @@ def test_the_node_stops_when_the_robots_other_nodes_are_all_gone(
     camera.kill()
     camera.wait(5)
     assert _wait(lambda: not _alive(pid), 5) is not None, log.read_text()
+    assert guardian.wait(5) == 0
     assert "none of the robot's other nodes has run here" in log.read_text()
 
 
-def test_no_other_node_ever_seen_stops_nothing() -> None:
-    orders = guardian_orders(others=("listener",), gone_s=1.0, slow_poll_s=0.0)
-    watch = Watch(orders, 0.0, nodes=lambda names: {})
+def test_other_nodes_never_seen_count_only_without_a_launch_process() -> None:
+    """With the robot's launch process known, other nodes never seen here (they run on
+    another machine) stop nothing; without one, a node started while none of the robot
+    runs here (a repair that raced the robot's shutdown) is stopped after the bound."""
+    launch = LaunchProcess(os.getpid(), process_start(os.getpid()) or 0, "this test")
+    with_launch = guardian_orders(launch, others=("listener",), gone_s=1.0, slow_poll_s=0.0)
+    watch = Watch(with_launch, 0.0, nodes=lambda names, domain: {})
     assert all(watch.why_stop(t / 10) is None for t in range(100))
+    alone = guardian_orders(None, others=("listener",), gone_s=1.0, slow_poll_s=0.0)
+    assert alone.others_from_start
+    watch = Watch(alone, 0.0, nodes=lambda names, domain: {})
+    stops = [t / 10 for t in range(30) if watch.why_stop(t / 10) is not None]
+    assert stops[:1] == [1.0], stops
 
 
 def test_a_stubborn_node_is_stopped_by_sigterm(started: Started, tmp_path: Path) -> None:
@@ -252,6 +269,7 @@ def test_a_stubborn_node_is_stopped_by_sigterm(started: Started, tmp_path: Path)
     time.sleep(0.5)  # the node has set its handler
     launcher.kill()
     assert _wait(lambda: not _alive(pid), 6) is not None
+    assert guardian.wait(5) == 0
     assert "stopped by SIGTERM" in log.read_text(), log.read_text()
 
 
@@ -333,3 +351,15 @@ def test_ros2_launch_and_racc_demo_are_launch_processes(started: Started, tmp_pa
     )
     assert seen is not None
     assert launch_process(None) is None
+
+
+def test_roslaunch_pkg_file_is_found_by_the_files_name(started: Started, tmp_path: Path) -> None:
+    (tmp_path / "robot.launch").write_text("<launch/>", encoding="utf-8")
+    by_package = _launcher(tmp_path, "roslaunch", ["my_robot", "robot.launch"], started)
+    target = str(tmp_path / "robot.launch")
+    found = _wait(lambda: (launch_process(target) or LaunchProcess(0, 0, "")).pid == by_package, 10)
+    assert found is not None
+    # A process that names the file's path wins over one that names the package's file.
+    by_path = _launcher(tmp_path, "roslaunch", [target], started)
+    found = _wait(lambda: (launch_process(target) or LaunchProcess(0, 0, "")).pid == by_path, 10)
+    assert found is not None

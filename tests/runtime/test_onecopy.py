@@ -279,3 +279,35 @@ def test_ros1_names_are_matched_in_their_namespace(procs: Procs) -> None:
     assert [c.pid for c in _wait_named(f"left/{node}", 1)] == [left.pid]
     assert local_copies(f"right/{node}", 1, None) == ([], [])
     assert local_copies(node, 1, None) == ([], [])
+
+
+def test_a_node_of_another_ros_graph_is_not_a_copy(procs: Procs) -> None:
+    """Two robots (or a robot and a simulation) on one machine: another master's talker, or
+    another domain's, is not this robot's old process."""
+    node = _name("talker")
+    ours = {**os.environ, "ROS_MASTER_URI": "http://localhost:11311", "ROS_DOMAIN_ID": "44"}
+    other = {**os.environ, "ROS_MASTER_URI": "http://127.0.0.1:22422", "ROS_DOMAIN_ID": "45"}
+    procs.start(sys.executable, "-c", SLEEP, f"__name:={node}", env=other)
+    procs.start(sys.executable, "-c", SLEEP, "--ros-args", "-r", f"__node:={node}", env=other)
+    time.sleep(0.5)
+    assert local_copies(node, 1, None, ours) == ([], [])
+    assert local_copies(node, 2, None, ours) == ([], [])
+    # The same master under another of this machine's names is the same graph.
+    same = procs.start(
+        sys.executable,
+        "-c",
+        SLEEP,
+        f"__name:={node}",
+        env={**ours, "ROS_MASTER_URI": "http://127.0.0.1:11311/"},
+    )
+    assert [c.pid for c in _wait_named_in(node, ours)] == [same.pid]
+
+
+def _wait_named_in(node: str, env: dict[str, str], timeout: float = 10.0) -> list[Copy]:
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        copies, _ = local_copies(node, 1, None, env)
+        if copies:
+            return copies
+        time.sleep(0.05)
+    return []
