@@ -49,35 +49,21 @@ sys.path.insert(0, str(ROOT / "tests" / "ros1"))
 
 from live_harness import ROS1, ROS2, Ros, environment  # noqa: E402
 from live_procs import (  # noqa: E402
+    CHAT_PAIR_MODEL,
     LISTENER,
     MONITOR,
     RACC,
+    SLOW_GETPID_TALKER,
     TALKER,
     Watcher,
     chat_launch,
     chat_package,
-    json_lines,
     pids_naming,
     ros2_launch_command,
     stop,
+    topic_rows,
 )
 
-MODEL = """robot chat
-topic /chatter : std_msgs/String @ 10 Hz
-node talker {
-  publishes /chatter
-  limits cpu 90 %, mem 900 MB
-}
-node listener { subscribes /chatter }
-"""
-SLOW_TALKER = """import time
-from rospy.impl import masterslave
-_answer = masterslave.ROSHandler.getPid
-def _slow(self, caller_id):
-    time.sleep(1.0)
-    return _answer(self, caller_id)
-masterslave.ROSHandler.getPid = _slow
-"""
 SCENARIOS = {1: ("slow-getpid", "launch-stop", "master-gap"), 2: ("launch-stop", "others-gone")}
 
 
@@ -91,10 +77,10 @@ class Robot:
         if ros.version == 2:
             self.env["ROS_DOMAIN_ID"] = "44"
         v = ros.version
-        talker = (SLOW_TALKER if slow else "") + TALKER[v]
+        talker = SLOW_GETPID_TALKER if slow else TALKER[v]
         self.bin = chat_package(tmp / "pkg", v, {"talker": talker, "listener": LISTENER[v]})
         self.launch = chat_launch(tmp / ros.robot_launch, v, ["talker", "listener"])
-        (tmp / "chat.ram").write_text(MODEL, encoding="utf-8")
+        (tmp / "chat.ram").write_text(CHAT_PAIR_MODEL, encoding="utf-8")
         (tmp / "monitor.py").write_text(MONITOR[v], encoding="utf-8")
         self.build = tmp / "build"
         subprocess.run(
@@ -172,7 +158,7 @@ class Robot:
             stop(w.proc)
 
     def rows(self, topic: str, since: float = 0.0) -> list[tuple[float, list[Any]]]:
-        return [(m["t"], m["rows"]) for m in json_lines(self.monitor, since) if m["topic"] == topic]
+        return topic_rows(self.monitor, topic, since)
 
     def running(self, node: str, since: float = 0.0) -> float | None:
         for t, rows in self.rows("/observations", since):

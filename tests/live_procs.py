@@ -300,6 +300,45 @@ def json_lines(watcher: Watcher, since: float = 0.0) -> list[dict[str, Any]]:
 
 # -- the chat robot as a package and a launch file (tests of nodes racc restarts) ------------
 
+# A talker and a listener: the robot whose talker racc restarts (tests/live/
+# test_lifetime_live.py, tests/ros1/test_slow_node_live.py, bench/lifetime.py).
+CHAT_PAIR_MODEL = """robot chat
+topic /chatter : std_msgs/String @ 10 Hz
+node talker {
+  publishes /chatter
+  limits cpu 90 %, mem 900 MB
+}
+node listener { subscribes /chatter }
+"""
+
+# The ROS 1 talker with a getPid that takes 1 s (racc's XML-RPC time-out is 0.5 s); its
+# XML-RPC server runs a thread per request: the node itself is healthy, at 10 Hz.
+SLOW_GETPID_S = 1.0
+SLOW_GETPID_TALKER = f"""import time
+from rospy.impl import masterslave
+_answer = masterslave.ROSHandler.getPid
+def _slow(self, caller_id):
+    time.sleep({SLOW_GETPID_S})
+    return _answer(self, caller_id)
+masterslave.ROSHandler.getPid = _slow
+""" + TALKER[1]
+
+
+def topic_rows(monitor: Watcher, topic: str, since: float = 0.0) -> list[tuple[float, Any]]:
+    """(time, rows) of each array a MONITOR printed for ``topic`` since ``since``."""
+    return [(m["t"], m["rows"]) for m in json_lines(monitor, since) if m["topic"] == topic]
+
+
+def can_unshare() -> bool:
+    """``unshare --pid`` works here (root)."""
+    if shutil.which("unshare") is None:
+        return False
+    done = subprocess.run(
+        ["unshare", "--pid", "--fork", "--mount-proc", "true"], capture_output=True, check=False
+    )
+    return done.returncode == 0
+
+
 PACKAGE_XML = (
     '<?xml version="1.0"?>\n<package format="2"><name>chat</name><version>0.0.0</version>'
     "<description>test</description><maintainer email='a@b.c'>a</maintainer>"

@@ -20,10 +20,10 @@ import subprocess
 import sys
 import time
 from pathlib import Path
-from typing import Any
 
 from live_harness import Ros, environment, start_roscore
 from live_procs import (
+    CHAT_PAIR_MODEL,
     LISTENER,
     MONITOR,
     RACC,
@@ -31,21 +31,13 @@ from live_procs import (
     Watcher,
     chat_launch,
     chat_package,
-    json_lines,
     pids_naming,
     ros2_launch_command,
     stop,
+    topic_rows,
 )
 from soak_support import Processes
 
-MODEL = """robot chat
-topic /chatter : std_msgs/String @ 10 Hz
-node talker {
-  publishes /chatter
-  limits cpu 90 %, mem 900 MB
-}
-node listener { subscribes /chatter }
-"""
 STOPPED_S = 15.0  # the guardian sees the launch end within 0.25 s; SIGINT, 5 s, SIGTERM...
 
 
@@ -53,12 +45,8 @@ def name_arg(ros: Ros, node: str) -> str:
     return f"__node:={node}" if ros.version == 2 else f"__name:={node}"
 
 
-def _messages(monitor: Watcher, topic: str, since: float = 0.0) -> list[tuple[float, Any]]:
-    return [(m["t"], m["rows"]) for m in json_lines(monitor, since) if m["topic"] == topic]
-
-
 def _row(monitor: Watcher, name: str, since: float, level: int) -> float | None:
-    for t, rows in _messages(monitor, "/observations", since):
+    for t, rows in topic_rows(monitor, "/observations", since):
         if any(r[0] == name and r[1] == level for r in rows):
             return float(t)
     return None
@@ -66,7 +54,7 @@ def _row(monitor: Watcher, name: str, since: float, level: int) -> float | None:
 
 def _started(monitor: Watcher, since: float) -> int | None:
     """The pid of the node a ``start_node`` line on /repair_log says racc started."""
-    for _, rows in _messages(monitor, "/repair_log", since):
+    for _, rows in topic_rows(monitor, "/repair_log", since):
         for name, _, message, _, _ in rows:
             found = re.search(r"started detached as pid (\d+)", message)
             if name == "start_node" and found:
@@ -97,7 +85,7 @@ def test_no_process_racc_started_outlives_the_robot(ros: Ros, tmp_path: Path) ->
     v = ros.version
     chat_package(tmp_path / "pkg", v, {"talker": TALKER[v], "listener": LISTENER[v]})
     launch = chat_launch(tmp_path / ros.robot_launch, v, ["talker", "listener"])
-    (tmp_path / "chat.ram").write_text(MODEL, encoding="utf-8")
+    (tmp_path / "chat.ram").write_text(CHAT_PAIR_MODEL, encoding="utf-8")
     (tmp_path / "monitor.py").write_text(MONITOR[v], encoding="utf-8")
     build = tmp_path / "build"
     subprocess.run(

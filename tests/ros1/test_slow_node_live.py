@@ -28,53 +28,31 @@ from typing import Any
 import pytest
 from live_harness import ROS1, check_runnable, environment, start_roscore
 from live_procs import (
+    CHAT_PAIR_MODEL,
     LISTENER,
     MONITOR,
     RACC,
-    TALKER,
+    SLOW_GETPID_S,
+    SLOW_GETPID_TALKER,
     Watcher,
     chat_launch,
     chat_package,
-    json_lines,
     pids_naming,
     stop,
+    topic_rows,
 )
 from soak_support import Processes
 
 if not ROS1.required() and ROS1.missing() is not None:
     pytest.skip(f"ROS 1 cannot run here: {ROS1.missing()}", allow_module_level=True)
 
-SLOW_S = 1.0  # getPid's answer comes this late
-# The talker of the chat robot with a getPid that takes SLOW_S (its XML-RPC server runs a
-# thread per request: the node itself is healthy and publishes at 10 Hz).
-SLOW_TALKER = f"""import time
-from rospy.impl import masterslave
-_answer = masterslave.ROSHandler.getPid
-def _slow(self, caller_id):
-    time.sleep({SLOW_S})
-    return _answer(self, caller_id)
-masterslave.ROSHandler.getPid = _slow
-""" + TALKER[1]
-
-MODEL = """robot chat
-topic /chatter : std_msgs/String @ 10 Hz
-node talker {
-  publishes /chatter
-  limits cpu 90 %, mem 900 MB
-}
-node listener { subscribes /chatter }
-"""
 QUIET_S = 25.0  # watched without a wrong action
-
-
-def _messages(monitor: Watcher, topic: str, since: float = 0.0) -> list[tuple[float, Any]]:
-    return [(m["t"], m["rows"]) for m in json_lines(monitor, since) if m["topic"] == topic]
 
 
 def _rows(monitor: Watcher, name: str, since: float = 0.0) -> list[tuple[float, int, Any]]:
     return [
         (t, r[1], r[4])
-        for t, rows in _messages(monitor, "/observations", since)
+        for t, rows in topic_rows(monitor, "/observations", since)
         for r in rows
         if r[0] == name
     ]
@@ -84,7 +62,7 @@ def _actions(monitor: Watcher, since: float = 0.0) -> list[str]:
     """Every repair action on /repair_log (plans, starts, stops)."""
     return [
         f"{r[0]}: {r[2]}"
-        for _, rows in _messages(monitor, "/repair_log", since)
+        for _, rows in topic_rows(monitor, "/repair_log", since)
         for r in rows
         if r[0] in ("plan", "start_node", "stop_node")
     ]
@@ -95,9 +73,9 @@ def test_a_slow_xmlrpc_node_is_not_restarted_and_its_crash_makes_one_copy(
 ) -> None:
     check_runnable(ROS1)
     env = environment(ROS1, tmp_path)
-    chat_package(tmp_path / "pkg", 1, {"talker": SLOW_TALKER, "listener": LISTENER[1]})
+    chat_package(tmp_path / "pkg", 1, {"talker": SLOW_GETPID_TALKER, "listener": LISTENER[1]})
     launch = chat_launch(tmp_path / "robot.launch", 1, ["talker", "listener"])
-    (tmp_path / "chat.ram").write_text(MODEL, encoding="utf-8")
+    (tmp_path / "chat.ram").write_text(CHAT_PAIR_MODEL, encoding="utf-8")
     (tmp_path / "monitor.py").write_text(MONITOR[1], encoding="utf-8")
     build = tmp_path / "build"
     subprocess.run(
@@ -146,8 +124,8 @@ def test_a_slow_xmlrpc_node_is_not_restarted_and_its_crash_makes_one_copy(
         talker_rows = _rows(monitor, "running(talker)", began)
         assert talker_rows and all(lv == 0 for _, lv, _ in talker_rows), talker_rows[-3:]
         print(
-            f"\nslow getPid ({SLOW_S:g} s): the talker (pid {original}) watched by its XML-RPC "
-            f"port; {QUIET_S:g} s without a plan, one copy"
+            f"\nslow getPid ({SLOW_GETPID_S:g} s): the talker (pid {original}) watched by its "
+            f"XML-RPC port; {QUIET_S:g} s without a plan, one copy"
         )
 
         # A real crash of the slow talker: repaired by one new copy.

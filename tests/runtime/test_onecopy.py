@@ -20,6 +20,7 @@ from xmlrpc.server import SimpleXMLRPCServer
 
 import psutil
 import pytest
+from live_procs import can_unshare
 
 from rac.errors import RacError
 from rac.ros1 import actuator as ros1_module
@@ -34,15 +35,8 @@ SLEEPER = f"{shlex.quote(sys.executable)} -c {shlex.quote(SLEEP)} --ros-args -r 
 QUICK = ((signal.SIGINT, 0.5), (signal.SIGTERM, 0.5), (signal.SIGKILL, 0.5))
 
 
-def _can_unshare() -> bool:
-    done = subprocess.run(
-        ["unshare", "--pid", "--fork", "--mount-proc", "true"], capture_output=True, check=False
-    )
-    return done.returncode == 0
-
-
 needs_unshare = pytest.mark.skipif(
-    not _can_unshare(), reason="unshare --pid needs root (CI runs as root)"
+    not can_unshare(), reason="unshare --pid needs root (CI runs as root)"
 )
 
 

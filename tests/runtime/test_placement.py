@@ -6,7 +6,6 @@ unknown, never ok.  The PID-namespace cases run a real process under ``unshare -
 from __future__ import annotations
 
 import os
-import shutil
 import signal
 import socket
 import subprocess
@@ -17,7 +16,7 @@ from pathlib import Path
 
 import psutil
 import pytest
-from live_procs import NetPair, can_make_netns
+from live_procs import NetPair, can_make_netns, can_unshare
 
 from rac.load.theory import load_theory
 from rac.logic import Atom
@@ -50,17 +49,8 @@ SPECS = (
 )
 
 
-def _can_unshare() -> bool:
-    if shutil.which("unshare") is None:
-        return False
-    done = subprocess.run(
-        ["unshare", "--pid", "--fork", "--mount-proc", "true"], capture_output=True, check=False
-    )
-    return done.returncode == 0
-
-
 needs_unshare = pytest.mark.skipif(
-    not _can_unshare(), reason="unshare --pid needs root (CI runs as root)"
+    not can_unshare(), reason="unshare --pid needs root (CI runs as root)"
 )
 
 
