@@ -228,6 +228,8 @@ CODES: dict[str, str] = {
     "RAC150": "the robot's racc secret cannot be used (missing, readable by others, damaged)",
     "RAC151": "racc confirm: no such repair plan awaits confirmation",
     "RAC152": "racc confirm: no repairer answered",
+    "RAC155": "a node's old process is still alive and could not be stopped (never two copies)",
+    "RAC156": "a node's old process may run where racc cannot stop it (never two copies)",
     "RAC100": "subscribed topic has no publisher",
     "RAC101": "hardware driven by no node",
     "RAC102": "node with no topics",

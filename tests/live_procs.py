@@ -296,3 +296,135 @@ def json_lines(watcher: Watcher, since: float = 0.0) -> list[dict[str, Any]]:
         except json.JSONDecodeError:
             continue
     return out
+
+
+# -- the chat robot as a package and a launch file (tests of nodes racc restarts) ------------
+
+# A talker and a listener: the robot whose talker racc restarts (tests/live/
+# test_lifetime_live.py, tests/ros1/test_slow_node_live.py, bench/lifetime.py).
+CHAT_PAIR_MODEL = """robot chat
+topic /chatter : std_msgs/String @ 10 Hz
+node talker {
+  publishes /chatter
+  limits cpu 90 %, mem 900 MB
+}
+node listener { subscribes /chatter }
+"""
+
+# The ROS 1 talker with a getPid that takes 1 s (racc's XML-RPC time-out is 0.5 s); its
+# XML-RPC server runs a thread per request: the node itself is healthy, at 10 Hz.
+SLOW_GETPID_S = 1.0
+SLOW_GETPID_TALKER = f"""import time
+from rospy.impl import masterslave
+_answer = masterslave.ROSHandler.getPid
+def _slow(self, caller_id):
+    time.sleep({SLOW_GETPID_S})
+    return _answer(self, caller_id)
+masterslave.ROSHandler.getPid = _slow
+""" + TALKER[1]
+
+
+def topic_rows(monitor: Watcher, topic: str, since: float = 0.0) -> list[tuple[float, Any]]:
+    """(time, rows) of each array a MONITOR printed for ``topic`` since ``since``."""
+    return [(m["t"], m["rows"]) for m in json_lines(monitor, since) if m["topic"] == topic]
+
+
+def can_unshare() -> bool:
+    """``unshare --pid`` works here (root)."""
+    if shutil.which("unshare") is None:
+        return False
+    done = subprocess.run(
+        ["unshare", "--pid", "--fork", "--mount-proc", "true"], capture_output=True, check=False
+    )
+    return done.returncode == 0
+
+
+PACKAGE_XML = (
+    '<?xml version="1.0"?>\n<package format="2"><name>chat</name><version>0.0.0</version>'
+    "<description>test</description><maintainer email='a@b.c'>a</maintainer>"
+    "<license>MIT</license></package>\n"
+)
+
+
+def chat_package(root: Path, version: int, nodes: dict[str, str]) -> Path:
+    """The package 'chat' with one executable per node (name -> Python source), under
+    ``root``: a ROS 1 package folder (``root`` on ROS_PACKAGE_PATH), or a ROS 2 install
+    prefix whose ament index lists it (``root`` on AMENT_PREFIX_PATH).  The folder of the
+    executables."""
+    if version == 2:
+        index = root / "share" / "ament_index" / "resource_index" / "packages"
+        index.mkdir(parents=True, exist_ok=True)
+        (index / "chat").write_text("", encoding="utf-8")
+        exe_dir = root / "lib" / "chat"
+    else:
+        exe_dir = root / "chat"
+        exe_dir.mkdir(parents=True, exist_ok=True)
+        (exe_dir / "package.xml").write_text(PACKAGE_XML, encoding="utf-8")
+    exe_dir.mkdir(parents=True, exist_ok=True)
+    for name, body in nodes.items():
+        exe = exe_dir / name
+        exe.write_text(f"#!{sys.executable}\n{body}", encoding="utf-8")
+        exe.chmod(0o755)
+    return exe_dir
+
+
+def chat_launch(path: Path, version: int, names: Sequence[str]) -> Path:
+    """A robot launch file starting each of ``names`` from the package 'chat'."""
+    exe = "exec" if version == 2 else "type"
+    lines = [f'  <node pkg="chat" {exe}="{n}" name="{n}"/>' for n in names]
+    path.write_text("<launch>\n" + "\n".join(lines) + "\n</launch>\n", encoding="utf-8")
+    return path
+
+
+# ``ros2 launch FILE`` for tests: the PyPI wheels have no ros2 command.  It starts each
+# <node> as racc's launch reader says ros2 launch would, and on SIGINT or SIGTERM passes
+# SIGINT to every node and waits for them, as ros2 launch does.
+ROS2_LAUNCH = """import signal, subprocess, sys, time
+from rac.ros2.launch import command_line, load_launch
+assert sys.argv[1] == "launch"
+procs = [subprocess.Popen(command_line(n)) for n in load_launch(sys.argv[2])]
+stopping = []
+for sig in (signal.SIGINT, signal.SIGTERM):
+    signal.signal(sig, lambda s, f: stopping.append(s))
+while not stopping and any(p.poll() is None for p in procs):
+    time.sleep(0.1)
+for p in procs:
+    if p.poll() is None:
+        p.send_signal(signal.SIGINT)
+for p in procs:
+    try:
+        p.wait(10)
+    except subprocess.TimeoutExpired:
+        p.kill()
+"""
+
+
+def ros2_launch_command(tmp: Path) -> Path:
+    """An executable named ``ros2`` (of this Python) that runs ``ros2 launch FILE``."""
+    folder = tmp / "ros2_standin"
+    folder.mkdir(exist_ok=True)
+    exe = folder / "ros2"
+    exe.write_text(f"#!{sys.executable}\n{ROS2_LAUNCH}", encoding="utf-8")
+    exe.chmod(0o755)
+    return exe
+
+
+def pids_naming(arg: str, within: Path | None = None) -> list[int]:
+    """Live processes (not zombies) whose command line carries ``arg`` exactly (and, with
+    ``within``, a path under that folder: a process of this test's own, not of another run
+    on the machine with a node of the same name)."""
+    out = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/cmdline", "rb") as f:
+                line = f.read().split(b"\0")
+            with open(f"/proc/{entry}/stat", "rb") as f:
+                state = f.read().rsplit(b")", 1)[1].split()[0]
+        except OSError:
+            continue
+        mine = within is None or any(str(within).encode() in a for a in line)
+        if arg.encode() in line and state not in (b"Z", b"X") and mine:
+            out.append(int(entry))
+    return out

@@ -7,7 +7,7 @@ import math
 from typing import Any
 
 from rac.commands.common import add_command, add_ros_option, ros_version
-from rac.commands.options import add_secret_option, rate_hz
+from rac.commands.options import add_robot_gone_option, add_secret_option, rate_hz
 from rac.errors import Diagnostic, RacError, did_you_mean
 from rac.load.files import load_observer_file
 from rac.load.secret import load_secret
@@ -72,6 +72,7 @@ def register(sub: Any) -> None:
         "(default: none; nodes in containers are restarted by their container)",
     )
     add_secret_option(parser)
+    add_robot_gone_option(parser)
     add_ros_option(parser)
     parser.set_defaults(run=run)
 
@@ -109,5 +110,6 @@ def run(args: argparse.Namespace) -> int:
         settle_s=args.settle,
         key=load_secret(args.secret or None),
         sources=dict(loaded.sources) if loaded.sources is not None else None,
+        robot_gone_s=args.robot_gone,
     )
     return 0

@@ -13,6 +13,7 @@ from typing import Any
 
 from rac.commands.common import CommandParser, run_values
 from rac.errors import RacError
+from rac.runtime.guardian import DEFAULT_GONE_S
 
 # -- observations: --obs, --obs-file (diagnose, repair, diagram) ------------------------------
 
@@ -115,6 +116,32 @@ def rate_hz(text: str) -> float:
     if not math.isfinite(value) or value <= 0:
         raise argparse.ArgumentTypeError(f"a rate must be > 0, not {text}")
     return value
+
+
+# -- the life of the nodes racc starts: --robot-gone (repairer, observe's agent) -------------
+
+
+def robot_gone_seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
+    if not 0 < value < math.inf:
+        raise argparse.ArgumentTypeError("must be more than 0 seconds")
+    return value
+
+
+def add_robot_gone_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--robot-gone",
+        metavar="S",
+        type=robot_gone_seconds,
+        default=DEFAULT_GONE_S,
+        help="a node racc starts is stopped when the robot stops: at once when the robot's "
+        "launch ends, or once its ROS 1 master (ROS 2: every other node of the robot on this "
+        "machine) has been gone this long; a master restart within it leaves the node "
+        f"running (default: {DEFAULT_GONE_S:g})",
+    )
 
 
 # -- the planner: --planner-timeout, --validate, --json (repair, scenario) --------------------

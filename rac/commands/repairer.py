@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from rac.commands.common import add_command, add_ros_option, ros_version
-from rac.commands.options import add_secret_option
+from rac.commands.options import add_robot_gone_option, add_secret_option
 from rac.errors import Diagnostic, RacError, did_you_mean
 from rac.load.files import load_observers
 from rac.load.kinds import OBSERVERS, ROBOT_LAUNCH, check_kind
@@ -29,8 +29,10 @@ def register(sub: Any) -> None:
         "with the observations of /observations) and execute it: a node is stopped and started "
         "again from its entry in the launch file given with --launch (ROS 1: the command "
         "roslaunch would run; ROS 2: the <node> of a launch XML file, started as ros2 launch "
-        "would, or the command of --restart-command), detached from racc so that it outlives "
-        "it; a switchable device is switched through the board client. A diagnosis must stand "
+        "would, or the command of --restart-command), once its old process is proven gone "
+        "(never two copies), detached from racc so that it outlives it, under a guardian "
+        "that stops it when the robot stops (--robot-gone); a switchable device is switched "
+        "through the board client. A diagnosis must stand "
         "--confirm seconds, a node never seen running is left alone for --startup-grace "
         "seconds, each component has a budget of repairs (--budget in --budget-window) with a "
         "doubling back-off (--backoff), a plan is aborted when its diagnosis clears, and "
@@ -150,6 +152,7 @@ def register(sub: Any) -> None:
         "model's first machine)",
     )
     add_secret_option(parser)
+    add_robot_gone_option(parser)
     add_ros_option(parser)
     parser.set_defaults(run=run)
 
@@ -262,9 +265,9 @@ def run(args: argparse.Namespace) -> int:
     if ros == 2:
         from rac.ros2.repairer import run_repairer as run2
 
-        run2(job, restart=args.restart_command or None)
+        run2(job, restart=args.restart_command or None, robot_gone_s=args.robot_gone)
         return 0
     from rac.ros1.repairer import run_repairer
 
-    run_repairer(job)
+    run_repairer(job, robot_gone_s=args.robot_gone)
     return 0

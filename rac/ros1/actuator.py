@@ -8,7 +8,7 @@ import os
 import signal
 import threading
 import xmlrpc.client
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 from urllib.parse import urlparse
@@ -17,13 +17,17 @@ from rac.errors import Diagnostic, RacError
 from rac.ros1.common import (
     CALLER,
     LOCAL_HOSTS,
+    is_local_host,
     master_uri,
     node_uri,
     proxy,
     resolve_pid,
 )
 from rac.runtime.detached import Detached, kill_pids, started_note
-from rac.runtime.placement import listening_pid
+from rac.runtime.guardian import DEFAULT_GONE_S
+from rac.runtime.lifetime import Lifetime, launch_process
+from rac.runtime.onecopy import Copy, local_copies, names_another_node, prove_gone
+from rac.runtime.placement import cmdline, in_own_pid_namespace, listening_pid
 from rac.runtime.procs import terminate
 
 
@@ -48,13 +52,19 @@ def load_launch_nodes(path: str) -> dict[str, Any]:
 
 class Ros1Actuator:
     """The executor's requests on ROS 1.  Started nodes are detached (:mod:`rac.runtime.
-    detached`): they belong to the robot and outlive racc."""
+    detached`): they belong to the robot and outlive racc, not the robot (their guardian
+    stops them when the robot's launch ends or its master has been gone ``robot_gone_s``).
+    A node is started only once its old process is proven gone (:mod:`rac.runtime.
+    onecopy`)."""
 
-    def __init__(self, rospy: Any, launch_file: str | None) -> None:
+    def __init__(
+        self, rospy: Any, launch_file: str | None, robot_gone_s: float = DEFAULT_GONE_S
+    ) -> None:
         from diagnostic_msgs.msg import KeyValue
 
         self.rospy = rospy
         self.launch_file = launch_file
+        self.robot_gone_s = robot_gone_s
         self.entries = load_launch_nodes(launch_file) if launch_file else {}
         self.run_id = str(rospy.get_param("/run_id", "racc"))
         self.detached = Detached()
@@ -73,7 +83,11 @@ class Ros1Actuator:
 
     def start_node(self, node: str) -> str:
         """The entry's command line and environment as roslaunch makes them, run in a
-        session of its own."""
+        session of its own under its guardian, once the old process is proven gone."""
+        with self.detached.starting:
+            return self._start(node)
+
+    def _start(self, node: str) -> str:
         # What roslaunch.nodeprocess.create_node_process computes, without its Process
         # object, which installs signal handlers (and fails off the main thread).
         import roslaunch.core
@@ -98,8 +112,55 @@ class Ros1Actuator:
             cwd = os.getcwd()
         else:
             cwd = rospkg.get_ros_home()
-        pid, log = self.detached.start(node, args, env, cwd, log_dir)
-        return started_note(pid, log, f"rosnode kill /{node.lstrip('/')}")
+        copies, unseen = self.old_copies(node, env)
+        stopped = prove_gone(node, copies, unseen)
+        lifetime = Lifetime(
+            launch=launch_process(self.launch_file),
+            master_uri=env.get("ROS_MASTER_URI") or master_uri(),
+            gone_s=self.robot_gone_s,
+        )
+        pid, log = self.detached.start(node, args, env, cwd, log_dir, lifetime)
+        note = started_note(pid, log, f"rosnode kill /{node.lstrip('/')}", lifetime)
+        return f"{stopped}; {note}" if stopped else note
+
+    def old_copies(
+        self, node: str, env: Mapping[str, str] | None = None
+    ) -> tuple[list[Copy], list[str]]:
+        """Every live process that may be ``node`` (:mod:`rac.runtime.onecopy`): the one
+        racc started, local processes naming it, the local process holding the XML-RPC
+        port the master has for it; and why any other cannot be stopped from here (the
+        master has it on another machine and its server answers, or does not answer)."""
+        copies, unseen = local_copies(node, 1, self.detached.pid(node), env)
+        try:
+            uri = node_uri(node)
+        except (OSError, xmlrpc.client.Error):
+            uri = None  # no master: the local processes are all that can be checked
+        if uri is None:
+            return copies, unseen
+        parsed = urlparse(uri)
+        host, port = parsed.hostname or "", parsed.port
+        if not is_local_host(host):
+            try:
+                proxy(uri).getPid(CALLER)
+                unseen.append(f"the master has it at {uri}, another machine, where it answers")
+            except TimeoutError:
+                unseen.append(f"the master has it at {uri}, another machine, which does not answer")
+            except (OSError, xmlrpc.client.Error):
+                pass  # refused: that server is gone
+            return copies, unseen
+        holder = listening_pid(port) if port else None
+        if (
+            holder is None
+            or holder == os.getpid()
+            or any(c.pid == holder for c in copies)
+            or names_another_node(cmdline(holder), node)
+        ):
+            return copies, unseen
+        if in_own_pid_namespace(holder):
+            copies.append(Copy(holder, f"it holds the XML-RPC port {port} the master has for it"))
+        else:
+            unseen.append(f"pid {holder} holds its XML-RPC port {port} in another PID namespace")
+        return copies, unseen
 
     def stop_node(self, node: str) -> str:
         """A node racc started: SIGINT to its session (as roslaunch stops a node), SIGTERM

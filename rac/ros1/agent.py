@@ -11,6 +11,7 @@ from rac.passes.machines import node_placements
 from rac.passes.observers import ObserverSpec
 from rac.ros1.actuator import Ros1Actuator
 from rac.ros1.common import Ros1Bus
+from rac.runtime.guardian import DEFAULT_GONE_S
 from rac.runtime.nodes import RepairJob
 from rac.runtime.repairer import Actuator
 from rac.runtime.routing import Agent, RoutedActuator, agent_started, agent_topic, no_agent
@@ -59,13 +60,17 @@ def serve_agent(bus: Ros1Bus, agent: Agent) -> Any:
 
 
 def start_agent(
-    bus: Ros1Bus, specs: Sequence[ObserverSpec], machine: str | None, launch: str | None
+    bus: Ros1Bus,
+    specs: Sequence[ObserverSpec],
+    machine: str | None,
+    launch: str | None,
+    robot_gone_s: float = DEFAULT_GONE_S,
 ) -> Agent | None:
     """The racc agent of ``machine``, restarting its nodes from ``launch`` or by their
     container; None without a machine."""
     if machine is None:
         return None
-    local = Ros1Actuator(bus.rospy, launch) if launch else None
+    local = Ros1Actuator(bus.rospy, launch, robot_gone_s) if launch else None
     agent = Agent(machine, node_placements(specs), local)
     serve_agent(bus, agent)
     bus.log(0, agent_started(machine, launch))

@@ -17,7 +17,7 @@ from urllib.parse import urlparse
 
 from rac.errors import Diagnostic, RacError
 from rac.runtime.bus import Texts
-from rac.runtime.placement import Found, prove_ros1
+from rac.runtime.placement import Found, prove_ros1, silent_ros1
 from rac.runtime.procs import UNANSWERED
 from rac.runtime.status import Row, rows_from_array
 from rac.runtime.trust import Gate, Trust, guard_rows, guard_text
@@ -125,14 +125,17 @@ def resolve_pid(node: str) -> Found | None:
 def node_liveness(node: str) -> Found | int | None:
     """:func:`resolve_pid` for the observer host, which tells a server that refuses the
     connection or denies the node (it is gone) from one that does not answer within
-    ``XMLRPC_TIMEOUT_S`` (``UNANSWERED``: a node busy on a loaded machine, or frozen)."""
+    ``XMLRPC_TIMEOUT_S`` (a node busy on a loaded machine, or frozen): that one's local
+    process is found without it (:func:`rac.runtime.placement.silent_ros1`), else it is
+    ``UNANSWERED``."""
+    uri: str | None = None
     try:
         uri = node_uri(node)
         if uri is None:
             return None
         code, _, pid = proxy(uri).getPid(CALLER)
     except TimeoutError:
-        return UNANSWERED
+        return _silent(node, uri)
     except (OSError, xmlrpc.client.Error):
         return None
     if code != 1:
@@ -142,6 +145,16 @@ def node_liveness(node: str) -> Found | int | None:
     if not is_local_host(host):
         return Found(None, f"its XML-RPC server is on {host}, another machine")
     return prove_ros1(node, int(pid), parsed.port)
+
+
+def _silent(node: str, uri: str | None) -> Found | int:
+    """A node that did not answer in time: its local process by the port of ``uri`` (or by
+    its command line, ``uri`` unknown: the master did not answer), else ``UNANSWERED``."""
+    parsed = urlparse(uri) if uri else None
+    if parsed is not None and not is_local_host(parsed.hostname or ""):
+        return UNANSWERED  # on another machine: nothing here to look at
+    found = silent_ros1(node, parsed.port if parsed is not None else None)
+    return found if found is not None else UNANSWERED
 
 
 def system_state() -> tuple[list[Any], list[Any], list[Any]]:

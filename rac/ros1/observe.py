@@ -24,6 +24,7 @@ from typing import Any
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec, TopicSource
 from rac.ros1.agent import start_agent
 from rac.ros1.common import Ros1Bus, connection_type, node_liveness, node_uri
+from rac.runtime.guardian import DEFAULT_GONE_S
 from rac.runtime.host import ObserverHost
 from rac.runtime.nodes import run_observer_node
 from rac.runtime.procs import DEFAULT_SETTLE_S, ProcessProbe
@@ -114,6 +115,7 @@ def run_observe(
     settle_s: float = DEFAULT_SETTLE_S,
     key: bytes | None = None,
     sources: dict[str, TopicSource] | None = None,
+    robot_gone_s: float = DEFAULT_GONE_S,
 ) -> None:
     bus = Ros1Bus(name, key, OBSERVER)
     rospy = bus.rospy
@@ -123,7 +125,7 @@ def run_observe(
     host.source = bus.name
     trust = bus.trust
     refuse = trust.refuse if trust is not None else host.refuse
-    agent = start_agent(bus, specs, machine, launch)
+    agent = start_agent(bus, specs, machine, launch, robot_gone_s)
     bank = host.bank
     readers = Readers(bank.topic_fields())
     connections = Connections(host.check, refuse, node_uri)

@@ -6,7 +6,9 @@ The executor (:mod:`rac.runtime.repairer`) decides; this node carries out its re
   command line and environment made by roslaunch's own code (package, type, args,
   remappings, environment; the file's parameters are already on the parameter server from
   the user's own roslaunch), started detached from racc (a session of its own): the node
-  belongs to the robot and outlives racc;
+  belongs to the robot and outlives racc, under a guardian that stops it when the robot
+  stops (its launch ends, its master is gone ``robot_gone_s``), once its old process is
+  proven gone (never two copies);
 - stop_node(n): a node this repairer started gets SIGINT, then SIGTERM; any other is asked
   to shut down over its XML-RPC API (as ``rosnode kill`` does), then sent SIGTERM;
 - kill_node(n): SIGKILL to the node's local process (a frozen node is found by its XML-RPC
@@ -28,6 +30,7 @@ from rac.ros1.common import (
     master_uri,
     proxy,
 )
+from rac.runtime.guardian import DEFAULT_GONE_S
 from rac.runtime.nodes import RepairJob, run_repair_node
 from rac.runtime.trust import BOARD_SWITCH, REPAIRER
 
@@ -55,9 +58,11 @@ class MasterWatch:
         return self.state
 
 
-def run_repairer(job: RepairJob, name: str = "racc_repairer") -> None:
+def run_repairer(
+    job: RepairJob, name: str = "racc_repairer", robot_gone_s: float = DEFAULT_GONE_S
+) -> None:
     bus = Ros1Bus(name, job.key, REPAIRER)
-    actuator = Ros1Actuator(bus.rospy, job.launch_file)
+    actuator = Ros1Actuator(bus.rospy, job.launch_file, robot_gone_s)
     trust = bus.trust
     if trust is not None:
         actuator.sealed = lambda device, value: trust.seal_kv(BOARD_SWITCH, device, value)

@@ -8,25 +8,42 @@ import os
 import shlex
 import signal
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 
 from rac.errors import Diagnostic, RacError
 from rac.ros2.common import Session, graph_nodes, reliable
 from rac.ros2.launch import LaunchNode, command_line, load_launch
 from rac.runtime.detached import Detached, kill_pids, started_note
+from rac.runtime.guardian import DEFAULT_GONE_S
+from rac.runtime.lifetime import Lifetime, launch_process, robot_nodes
+from rac.runtime.onecopy import local_copies, prove_gone
 from rac.runtime.procs import node_processes, outermost, terminate
 
 POLITE = (signal.SIGINT, signal.SIGTERM)  # the executor kills after the step time-out
 
 
 class Ros2Actuator:
-    def __init__(self, session: Session, launch_file: str | None, restart: str | None) -> None:
+    """The executor's requests on ROS 2.  A started node belongs to the robot: detached
+    from racc, under a guardian that stops it when the robot's launch ends or all of the
+    robot's other local nodes (``robot``, and the launch file's) have been gone for
+    ``robot_gone_s``; it is started only once its old process is proven gone."""
+
+    def __init__(
+        self,
+        session: Session,
+        launch_file: str | None,
+        restart: str | None,
+        robot: Iterable[str] = (),
+        robot_gone_s: float = DEFAULT_GONE_S,
+    ) -> None:
         from diagnostic_msgs.msg import KeyValue
 
         self.session = session
         self.launch_file, self.restart = launch_file, restart
         nodes = load_launch(launch_file) if launch_file else []
         self.entries: dict[str, LaunchNode] = {n.key: n for n in nodes if n.name}
+        self.robot = robot_nodes([*robot, *self.entries])
+        self.robot_gone_s = robot_gone_s
         self.detached = Detached()
         self.KeyValue = KeyValue
         self.switches = session.node.create_publisher(KeyValue, "/board_switch", reliable(10))
@@ -53,8 +70,18 @@ class Ros2Actuator:
 
     def start_node(self, node: str) -> str:
         args, env = self._command(node)
-        pid, log = self.detached.start(node, args, {**os.environ, **env})
-        return started_note(pid, log, f"kill -INT {pid}")
+        with self.detached.starting:
+            env = {**os.environ, **env}
+            copies, unseen = local_copies(node, 2, self.detached.pid(node), env)
+            stopped = prove_gone(node, copies, unseen)
+            lifetime = Lifetime(
+                launch=launch_process(self.launch_file),
+                others=self.robot,
+                gone_s=self.robot_gone_s,
+            )
+            pid, log = self.detached.start(node, args, {**os.environ, **env}, lifetime=lifetime)
+        note = started_note(pid, log, f"kill -INT {pid}", lifetime)
+        return f"{stopped}; {note}" if stopped else note
 
     def stop_node(self, node: str) -> str:
         pid = self.detached.pid(node)

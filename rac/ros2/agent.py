@@ -11,6 +11,7 @@ from rac.passes.machines import node_placements
 from rac.passes.observers import ObserverSpec
 from rac.ros2.actuator import Ros2Actuator
 from rac.ros2.common import Session, reliable
+from rac.runtime.guardian import DEFAULT_GONE_S
 from rac.runtime.nodes import RepairJob
 from rac.runtime.repairer import Actuator
 from rac.runtime.routing import Agent, RoutedActuator, agent_started, agent_topic, no_agent
@@ -45,7 +46,11 @@ def routed_actuator(session: Session, job: RepairJob, local: Any) -> Actuator:
 
 
 def start_agent(
-    session: Session, specs: Sequence[ObserverSpec], machine: str | None, launch: str | None
+    session: Session,
+    specs: Sequence[ObserverSpec],
+    machine: str | None,
+    launch: str | None,
+    robot_gone_s: float = DEFAULT_GONE_S,
 ) -> Agent | None:
     """The racc agent of ``machine``, restarting its nodes from ``launch`` (a ROS 2 launch
     XML file) or by their container; None without a machine."""
@@ -53,7 +58,8 @@ def start_agent(
         return None
     from diagnostic_msgs.msg import KeyValue
 
-    local = Ros2Actuator(session, launch, None) if launch else None
+    robot = node_placements(specs)  # the model's nodes: the guardian watches the others
+    local = Ros2Actuator(session, launch, None, robot, robot_gone_s) if launch else None
     agent = Agent(machine, node_placements(specs), local)
 
     topic, trust = agent_topic(machine), session.trust

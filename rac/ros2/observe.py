@@ -27,6 +27,7 @@ from typing import Any
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec, TopicSource
 from rac.ros2.agent import start_agent
 from rac.ros2.common import PidResolver, Session, graph_nodes, message_class, sensor_qos
+from rac.runtime.guardian import DEFAULT_GONE_S
 from rac.runtime.host import ObserverHost
 from rac.runtime.nodes import run_observer_node
 from rac.runtime.procs import DEFAULT_SETTLE_S, ProcessProbe
@@ -52,6 +53,7 @@ def run_observe(
     settle_s: float = DEFAULT_SETTLE_S,
     key: bytes | None = None,
     sources: dict[str, TopicSource] | None = None,
+    robot_gone_s: float = DEFAULT_GONE_S,
 ) -> None:
     session = Session(name, key=key, role=OBSERVER)
     from diagnostic_msgs.msg import DiagnosticArray
@@ -59,7 +61,7 @@ def run_observe(
     node = session.node
     host = ObserverHost(specs, sources=sources)
     host.source = session.name
-    agent = start_agent(session, specs, machine, launch)
+    agent = start_agent(session, specs, machine, launch, robot_gone_s)
     bank = host.bank
     readers = Readers(bank.topic_fields(), ros_version=2)
     wanted = frozenset(bank.topic_fields())

@@ -3,10 +3,12 @@
 A node started as a plain child of the repairer shares racc's process group: roslaunch
 (which signals each node's group) and Ctrl-C in racc's terminal would stop it with racc,
 leaving the robot without the node racc had just repaired.  :class:`Detached` starts each
-node in a session of its own (``start_new_session``), its output in a log file and its stdin
-on ``/dev/null``, so that it outlives racc; the repairer only keeps the process to reap it
-(no zombie while racc runs) and to know its pid for a later stop or kill.  Both ROS
-transports use it; they only say what to run.
+node in a session of its own, its output in a log file and its stdin on ``/dev/null``, so
+that it outlives racc.  It starts it through a guardian (:mod:`rac.runtime.guardian`), a
+small process of its own session that stops the node when the robot stops (its launch
+ends, its master or its other nodes are gone): the robot's lifetime bounds the node's.
+The repairer keeps the guardian to reap it (no zombie while racc runs) and the node's own
+pid for a later stop or kill.  Both ROS transports use it; they only say what to run.
 """
 
 from __future__ import annotations
@@ -16,12 +18,16 @@ import os
 import re
 import signal
 import subprocess
+import threading
 import time
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
+import psutil
+
 from rac.errors import Diagnostic, RacError
-from rac.runtime.procs import alive
+from rac.runtime.lifetime import Lifetime, start_guarded
 
 
 def log_directory() -> Path:
@@ -33,9 +39,32 @@ def log_directory() -> Path:
     return Path(home) / "log"
 
 
+@dataclass(slots=True)
+class Started:
+    """A node racc started: its guardian (racc's child, which racc reaps) and the node's
+    own process (the guardian's child), known by pid and start time."""
+
+    guardian: subprocess.Popen[bytes]
+    pid: int
+    node: psutil.Process | None  # None: it ended before racc could look at it
+
+    def running(self) -> bool:
+        try:
+            return (
+                self.node is not None
+                and self.node.is_running()
+                and self.node.status() != psutil.STATUS_ZOMBIE
+            )
+        except psutil.Error:
+            return False
+
+
 class Detached:
     def __init__(self) -> None:
-        self.procs: dict[str, subprocess.Popen[bytes]] = {}  # node -> its latest process
+        self.procs: dict[str, Started] = {}  # node -> its latest process
+        # One start at a time: a start whose call outlived the executor's step time-out
+        # must not race the next attempt's proof that the old process is gone.
+        self.starting = threading.Lock()
 
     def start(
         self,
@@ -44,8 +73,11 @@ class Detached:
         env: Mapping[str, str],
         cwd: str | None = None,
         log_dir: Path | None = None,
+        lifetime: Lifetime | None = None,
     ) -> tuple[int, Path]:
-        """Start ``args`` for ``node`` in a session of its own: (its pid, its log file)."""
+        """Start ``args`` for ``node`` under its guardian (:mod:`rac.runtime.guardian`), in
+        a session of its own: (the node's pid, its log file).  The guardian stops the node
+        when the robot stops, as ``lifetime`` says."""
         folder = (log_dir or log_directory()) / "racc_started"
         stem = re.sub(r"[^A-Za-z0-9_.-]", "_", node.strip("/")) or "node"
         log = folder / f"{stem}-{time.strftime('%Y%m%d-%H%M%S')}.log"
@@ -53,28 +85,23 @@ class Detached:
             folder.mkdir(parents=True, exist_ok=True)
             if cwd:
                 Path(cwd).mkdir(parents=True, exist_ok=True)  # as roslaunch makes ROS_HOME
-            with open(log, "ab") as out:
-                proc = subprocess.Popen(
-                    list(args),
-                    env=dict(env),
-                    cwd=cwd,
-                    stdin=subprocess.DEVNULL,
-                    stdout=out,
-                    stderr=subprocess.STDOUT,
-                    start_new_session=True,
-                    close_fds=True,
-                )
         except OSError as err:
             raise RacError([Diagnostic("RAC111", f"cannot start '{node}': {err}")]) from None
-        self.procs[node] = proc
-        return proc.pid, log
+        orders = (lifetime or Lifetime()).orders(node, args, env, log, cwd)
+        guardian, pid = start_guarded(orders)
+        try:
+            proc: psutil.Process | None = psutil.Process(pid)
+        except psutil.Error:  # it ended at once: its log says why; the executor will see
+            proc = None
+        self.procs[node] = Started(guardian, pid, proc)
+        return pid, log
 
     def pid(self, node: str) -> int | None:
         """The pid of the process started for ``node``, while it runs."""
-        proc = self.procs.get(node)
-        if proc is None or proc.poll() is not None or not alive(proc.pid):
+        started = self.procs.get(node)
+        if started is None or not started.running():
             return None
-        return proc.pid
+        return started.pid
 
     def signal(self, node: str, sig: int, only: int | None = None) -> bool:
         """Signal the session started for ``node`` (its whole process group); False when
@@ -90,18 +117,19 @@ class Detached:
         return True
 
     def reap(self) -> None:
-        """Collect the exit status of started nodes that ended (no zombies)."""
-        for node, proc in list(self.procs.items()):
-            if proc.poll() is not None:
+        """Collect the exit status of the guardians whose node ended (no zombies)."""
+        for node, started in list(self.procs.items()):
+            if started.guardian.poll() is not None and not started.running():
                 del self.procs[node]
 
 
-def started_note(pid: int, log: Path, stop: str) -> str:
-    """The log's word on a started node: whose it is and how to stop it."""
+def started_note(pid: int, log: Path, stop: str, lifetime: Lifetime | None = None) -> str:
+    """The log's word on a started node: whose it is, what stops it and how to stop it."""
+    until = (lifetime or Lifetime()).describe()
     return (
         f"started detached as pid {pid} in a session of its own: it belongs to the robot "
-        f"and keeps running when racc stops (stop it with '{stop}' or 'kill {pid}'); "
-        f"its output goes to {log}"
+        f"and keeps running when racc stops, until {until} (stop it with '{stop}' or "
+        f"'kill {pid}'); its output goes to {log}"
     )
 
 

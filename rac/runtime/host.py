@@ -72,6 +72,7 @@ class ObserverHost:
         self._starved_since = 0.0
         self.extra: dict[Atom, tuple[tuple[str, str], ...]] = {}  # more values of a row
         self.withdrawn: dict[Atom, float] = {}  # atoms made unknown, since when
+        self._withheld: dict[Atom, Verdict] = {}  # the last verdict of a withdrawn atom
         # The host's node name, on every row (value "host"): the engine tells hosts apart
         # by it and makes a silent host's atoms unknown (rac.runtime.hosts).
         self.source = ""
@@ -216,6 +217,7 @@ class ObserverHost:
         for v in verdicts:
             self.current[v.atom] = v
             self.withdrawn.pop(v.atom, None)
+            self._withheld.pop(v.atom, None)
             self.changes.append(v)
 
     def withdraw(self, atoms: Iterable[Atom]) -> list[Atom]:
@@ -224,9 +226,28 @@ class ObserverHost:
         with self._lock:
             t = self._now()
             for atom in atoms:
-                if self.current.pop(atom, None) is not None or atom not in self.withdrawn:
+                last = self.current.pop(atom, None)
+                if last is not None:
+                    self._withheld[atom] = last
+                if last is not None or atom not in self.withdrawn:
                     self.withdrawn[atom] = t
                     out.append(atom)
+        return out
+
+    def restore(self, atoms: Iterable[Atom]) -> list[Verdict]:
+        """Withdrawn atoms that can be judged again: their observer's last verdict holds
+        again, from now (an observer reports only changes, so it would never say it again).
+        The verdicts restored; an atom without one stays unknown until its first."""
+        out = []
+        with self._lock:
+            t = self._now()
+            for atom in atoms:
+                last = self._withheld.pop(atom, None)
+                if last is not None and self.withdrawn.pop(atom, None) is not None:
+                    v = replace(last, t=t)
+                    self.current[atom] = v
+                    self.changes.append(v)
+                    out.append(v)
         return out
 
     def annotate(self, atom: Atom, values: tuple[tuple[str, str], ...]) -> None:
@@ -322,16 +343,19 @@ class HostLoop:
 
     def _placements(self) -> list[str]:
         """How each node whose placement changed is watched now: logged, on its
-        ``running`` row, and its unmeasurable properties withdrawn."""
+        ``running`` row, its unmeasurable atoms withdrawn (its properties without a proven
+        process; its ``running`` too while that is unknown) and the others restored."""
         host, view, out = self.host, self.placement, []
         for node, found in self.probe.take_placements():
             out.append(view.line(host.clock() + host.epoch, node, found))
             running = view.running.get(node)
             if running is not None:
                 host.annotate(running, view.values(node, found))
+            why = "no answer" if found.unknown else "no process"
             for atom in host.withdraw(view.withdrawn(node, found)):
                 wall = host.clock() + host.epoch
-                out.append(f"t={wall:.3f} observation unknown {atom} (no process)")
+                out.append(f"t={wall:.3f} observation unknown {atom} ({why})")
+            host.restore(view.measurable(node, found))  # logged as verdict changes
         return out
 
     def step(self, now: float) -> HostStep:

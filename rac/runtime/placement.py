@@ -16,13 +16,15 @@ a pid alone proves nothing.
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Sequence
+import socket
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 import psutil
 
 from rac.logic import Atom
 from rac.passes.observers import ObserverSpec
+from rac.runtime.guardian import host_port
 
 
 @dataclass(frozen=True, slots=True)
@@ -35,10 +37,15 @@ class Found:
 
     pid: int | None
     how: str
+    # Whether the node runs is not known: the middleware does not answer for it and no
+    # local process of it is proven (a slow answer is not an absent process).
+    unknown: bool = False
 
     @property
     def watched(self) -> str:
         """The value ``watched`` on the node's ``/observations`` row."""
+        if self.unknown:
+            return "unknown"
         return "process" if self.pid is not None else "middleware"
 
 
@@ -161,6 +168,96 @@ def prove_ros1(node: str, pid: int, port: int | None) -> Found:
     )
 
 
+def silent_ros1(node: str, port: int | None) -> Found | None:
+    """A local ROS 1 node whose XML-RPC server did not answer ``getPid`` in time (busy,
+    or frozen): its process found without asking it, by the XML-RPC port the master has for
+    it (``port``; None: not of this machine, or not known) or else by the one process tree
+    whose command line names it.  None when no process of it can be proven."""
+    why = "getPid did not answer in time"
+    pid = listening_pid(port) if port is not None else None
+    if pid is not None and in_own_pid_namespace(pid) and on_this_host(pid):
+        return Found(pid, f"{why}; pid {pid} holds its XML-RPC port {port}")
+    named = ros1_named(node, unreadable=False, graph=ros_graph(os.environ, 1))
+    pids = {p.pid for p in named}
+    outer = [p for p in named if not (_parents(p) & (pids - {p.pid}))]
+    if len(outer) != 1:  # none, or several nodes of that name (namespaces): no proof
+        return None
+    # One tree (a wrapper such as rosrun and the node it runs): the innermost is the node.
+    pid = max(named, key=lambda p: len(_parents(p))).pid
+    if not (in_own_pid_namespace(pid) and on_this_host(pid)):
+        return None
+    return Found(pid, f"{why}; pid {pid}'s command line names it")
+
+
+def _namespace(proc: psutil.Process, cmdline: Sequence[str]) -> str | None:
+    """A ROS 1 process's namespace: its last ``__ns:=``, else its ROS_NAMESPACE (roslaunch
+    passes a group's namespace so), else "/"; None when its environment cannot be read
+    (another user's process)."""
+    spaces = [a.partition(":=")[2] for a in cmdline if a.startswith("__ns:=")]
+    if spaces:
+        return "/" + spaces[-1].strip("/")
+    try:
+        return "/" + proc.environ().get("ROS_NAMESPACE", "").strip("/")
+    except psutil.Error:
+        return None
+
+
+def ros_graph(env: Mapping[str, str], ros: int, cmdline: Sequence[str] = ()) -> str:
+    """The ROS graph of a process with this environment and command line: its master (ROS
+    1: ``__master:=``, else ROS_MASTER_URI; every name of this machine counts as one) or its
+    domain (ROS 2: ROS_DOMAIN_ID).  Two graphs on one machine may have nodes of one name."""
+    if ros == 2:
+        return f"domain {env.get('ROS_DOMAIN_ID') or '0'}"
+    masters = [a.partition(":=")[2] for a in cmdline if a.startswith("__master:=")]
+    uri = masters[-1] if masters else env.get("ROS_MASTER_URI") or "http://localhost:11311"
+    address = host_port(uri)
+    if address is None:
+        return f"master {uri}"
+    host, port = address
+    local = host in ("localhost", "::1", socket.gethostname()) or host.startswith("127.")
+    return f"master {'this machine' if local else host}:{port}"
+
+
+def in_graph(proc: psutil.Process, ros: int, graph: str | None, cmdline: Sequence[str]) -> bool:
+    """The process is of the ROS graph ``graph`` (:func:`ros_graph`; None: any), or its
+    environment cannot be read (then it may be)."""
+    if graph is None:
+        return True
+    try:
+        env = proc.environ()
+    except psutil.Error:
+        return True
+    return ros_graph(env, ros, cmdline) == graph
+
+
+def ros1_named(node: str, unreadable: bool, graph: str | None = None) -> list[psutil.Process]:
+    """Live processes whose command line names the ROS 1 node ``ns/name`` (``__name:=``)
+    in its namespace (and its ROS graph, :func:`ros_graph`); ``unreadable``: and those whose
+    namespace cannot be read."""
+    ns, _, base = node.strip("/").rpartition("/")
+    wanted = "/" + ns
+    out = []
+    for proc in psutil.process_iter(["cmdline", "status"]):
+        line = proc.info["cmdline"] or []
+        if f"__name:={base}" not in line or proc.info["status"] == psutil.STATUS_ZOMBIE:
+            continue
+        if not in_graph(proc, 1, graph, line):
+            continue
+        space = _namespace(proc, line)
+        if (space is None and unreadable) or (
+            space is not None and space.rstrip("/") == wanted.rstrip("/")
+        ):
+            out.append(proc)
+    return out
+
+
+def _parents(proc: psutil.Process) -> set[int]:
+    try:
+        return {p.pid for p in proc.parents()}
+    except psutil.Error:
+        return set()
+
+
 def prove_by_cmdline(pid: int) -> Found:
     """A process found by the ``__node:=`` on its command line (ROS 2), trusted when it is
     of this PID namespace and this host."""
@@ -199,6 +296,18 @@ class PlacementView:
         """A greppable log line: ``t=… watch talker: middleware (why)``."""
         return f"t={t:.3f} watch {node}: {found.watched} ({found.how})"
 
+    def atoms(self, node: str) -> list[Atom]:
+        running = self.running.get(node)
+        return [*([running] if running is not None else []), *self.properties.get(node, ())]
+
     def withdrawn(self, node: str, found: Found) -> list[Atom]:
-        """The atoms that become unknown when ``node`` is watched as ``found`` says."""
+        """The atoms that become unknown when ``node`` is watched as ``found`` says: its
+        properties without a proven process, its ``running`` too when that is unknown."""
+        if found.unknown:
+            return self.atoms(node)
         return [] if found.pid is not None else list(self.properties.get(node, ()))
+
+    def measurable(self, node: str, found: Found) -> list[Atom]:
+        """The atoms of ``node`` that are judged again when it is watched as ``found`` says."""
+        gone = set(self.withdrawn(node, found))
+        return [a for a in self.atoms(node) if a not in gone]

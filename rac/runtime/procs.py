@@ -30,15 +30,28 @@ from collections.abc import Callable, Iterable, Sequence
 import psutil
 
 from rac.observe import Event, NodeSample, PropertySample
+from rac.runtime.guardian import remaps_node
 from rac.runtime.placement import Found
 
 REMOTE = -1
 # The middleware did not answer in time (ROS 1: getPid or the master's lookupNode timed
-# out): a busy node, not a dead one, until it has been so for UNANSWERED_HOLD_S.
+# out) and no local process of the node is proven: a busy node, not a dead one.  Its last
+# answer stands for UNANSWERED_HOLD_S; then whether it runs is unknown (its ``running``
+# atom is withdrawn) until it answers or refuses: a slow answer is not an absent process.
 UNANSWERED = -2
 UNANSWERED_HOLD_S = 2.0
 DEFAULT_SETTLE_S = 5.0  # a process's start-up is not its steady state
 Resolved = int | Found | None
+
+
+GONE = Found(None, "it answers no more: the master does not have it, or its server refused")
+
+
+def _silent(for_s: float) -> str:
+    return (
+        f"no answer for {for_s:.1f} s, and no local process of it is proven (none holds its "
+        "XML-RPC port or names it): whether it runs is unknown until it answers or refuses"
+    )
 
 
 def as_found(resolved: Resolved) -> Found | None:
@@ -108,6 +121,12 @@ class ProcessProbe:
         out, self._moved = self._moved, []
         return out
 
+    def unknown(self, node: str) -> bool:
+        """Whether the node runs is unknown: the middleware has not answered for it for
+        ``UNANSWERED_HOLD_S`` and no local process of it is proven."""
+        found = self.placement.get(node)
+        return found is not None and found.unknown
+
     def pid(self, node: str) -> int | None:
         proc = self._procs.get(node)
         return proc.pid if proc is not None else None
@@ -128,20 +147,27 @@ class ProcessProbe:
         """Ask the middleware (at most every ``resolve_every_s``); None: not asked now, or
         not answered in time, which leaves the last answer standing for up to
         ``UNANSWERED_HOLD_S`` (like a liveness probe's failure threshold: one slow answer
-        of a node on a loaded machine is no crash); then the node counts as not running."""
+        of a node on a loaded machine is no crash); then whether the node runs is unknown
+        (:meth:`unknown`) until it answers, or refuses (gone)."""
         if t - self._asked.get(node, float("-inf")) < self.resolve_every_s:
             return None
         self._asked[node] = t
         resolved = self.resolve(node)
+        last = self.placement.get(node)
         if isinstance(resolved, int) and resolved == UNANSWERED:
-            last = self.placement.get(node)
             if last is not None and last.pid is not None:
                 return False  # its proven process is gone: no answer brings it back
             since = self._unanswered.setdefault(node, t)
-            return None if t - since < UNANSWERED_HOLD_S else False
+            if t - since >= UNANSWERED_HOLD_S:
+                self._alive.pop(node, None)  # no sample until it answers
+                if last is None or not last.unknown:
+                    self._place(node, Found(None, _silent(t - since), unknown=True))
+            return None
         self._unanswered.pop(node, None)
         found = as_found(resolved)
         if found is None:
+            if last is not None and last.unknown:
+                self._place(node, GONE)
             return False
         if found.pid is not None:
             try:
@@ -228,14 +254,6 @@ class ProcessProbe:
 # -- processes by their ROS 2 command line -------------------------------------------------
 
 
-def _matches(cmdline: Sequence[str], base: str, ns: str) -> bool:
-    if f"__node:={base}" not in cmdline:
-        return False
-    wanted = "/" + ns.strip("/")
-    spaces = [a.partition(":=")[2] for a in cmdline if a.startswith("__ns:=")]
-    return (spaces[-1] if spaces else "/").rstrip("/") == wanted.rstrip("/")
-
-
 def node_processes(
     node: str, table: Sequence[psutil.Process] | None = None
 ) -> list[psutil.Process]:
@@ -244,7 +262,7 @@ def node_processes(
     ns, _, base = node.strip("/").rpartition("/")
     found = []
     for proc in process_table() if table is None else table:
-        if _matches(proc.info["cmdline"], base, ns):
+        if remaps_node(proc.info["cmdline"], base, ns):
             found.append(proc)
     return sorted(found, key=lambda p: (p.info["create_time"], p.pid))
 

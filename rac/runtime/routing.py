@@ -213,14 +213,18 @@ class Agent:
         where, container = self.placements[node.strip("/")]
         if where is not None and where != self.machine:
             return self._entry(1, action, node, f"refused: '{node}' runs on {where}")
+        note: str | None = None
         try:
             if container is not None:
                 run_container(action, node, container)
             elif self.local is not None:
-                getattr(self.local, action)(node)
+                # The local actuator proves the old process gone before it starts the node
+                # (rac.runtime.onecopy), here on the node's machine as for the repairer's.
+                note = getattr(self.local, action)(node)
             else:
                 return self._entry(2, action, node, "failed: no --launch file to start it from")
         except RacError as err:
             first = err.diagnostics[0]
             return self._entry(2, action, node, f"failed: {first.code} {first.message}")
-        return self._entry(0, action, node, f"done {self.clock() - asked:.2f} s after the request")
+        done = f"done {self.clock() - asked:.2f} s after the request"
+        return self._entry(0, action, node, f"{done}: {note}" if note else done)

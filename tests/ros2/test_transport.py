@@ -110,6 +110,7 @@ def test_the_ros2_actuator_starts_detached_stops_politely_and_kills(tmp_path: Pa
 
     actuator = Ros2Actuator.__new__(Ros2Actuator)  # no rclpy session: switching is not tested
     actuator.launch_file, actuator.entries, actuator.detached = None, {}, Detached()
+    actuator.robot, actuator.robot_gone_s = (), 30.0
     sleeper = f"{sys.executable} -c 'import time; time.sleep(60)' --ros-args -r __node:={{node}}"
     actuator.restart = sleeper
     os.environ["ROS_LOG_DIR"] = str(tmp_path)
@@ -122,7 +123,7 @@ def test_the_ros2_actuator_starts_detached_stops_politely_and_kills(tmp_path: Pa
     assert os.getsid(pid) == pid != os.getsid(0)  # its own session: it outlives racc
     assert [p.pid for p in node_processes("racc_test_sleeper")] == [pid]
     assert "SIGINT" in actuator.stop_node("racc_test_sleeper")
-    actuator.detached.procs["racc_test_sleeper"].wait(10)
+    actuator.detached.procs["racc_test_sleeper"].guardian.wait(10)  # it ends with its node
     # A node racc did not start and that ignores SIGINT (frozen, or stubborn) is killed.
     stubborn = subprocess.Popen(
         [

@@ -1,5 +1,6 @@
 """Nodes the repairer starts belong to the robot (rac.runtime.detached): a session of their
-own, a log file, stdin on /dev/null; signals reach only the process meant."""
+own under a guardian (rac.runtime.guardian), a log file, stdin on /dev/null; the pid racc
+gets is the node's own; signals reach only the process meant."""
 
 from __future__ import annotations
 
@@ -9,10 +10,12 @@ import sys
 import time
 from pathlib import Path
 
+import psutil
 import pytest
 
 from rac.errors import RacError
 from rac.runtime.detached import Detached, kill_pids, started_note
+from rac.runtime.guardian import GUARDIAN_ENV
 
 SLEEPER = [sys.executable, "-c", "import sys, time; print('up', flush=True); time.sleep(60)"]
 
@@ -44,8 +47,14 @@ def test_a_started_node_runs_in_a_session_of_its_own(tmp_path: Path) -> None:
         assert started.pid("ns/jaguar_node") == pid
         assert not started.signal("ns/jaguar_node", signal.SIGTERM, only=pid + 1)
         assert started.pid("ns/jaguar_node") == pid  # the wrong pid: not signalled
+        # The node is the guardian's child, and knows its guardian; the guardian is racc's.
+        guardian = started.procs["ns/jaguar_node"].guardian
+        assert psutil.Process(pid).ppid() == guardian.pid != pid
+        assert psutil.Process(pid).environ()[GUARDIAN_ENV] == str(guardian.pid)
+        assert os.getsid(guardian.pid) == guardian.pid  # detached from racc too
         assert started.signal("ns/jaguar_node", signal.SIGTERM, only=pid)
-        assert _wait_gone(pid) or started.procs["ns/jaguar_node"].wait(5) is not None
+        assert _wait_gone(pid)
+        assert guardian.wait(5) == 0  # the guardian ends with its node
         started.reap()
         assert started.pid("ns/jaguar_node") is None and started.procs == {}
     finally:

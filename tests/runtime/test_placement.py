@@ -6,7 +6,6 @@ unknown, never ok.  The PID-namespace cases run a real process under ``unshare -
 from __future__ import annotations
 
 import os
-import shutil
 import signal
 import socket
 import subprocess
@@ -17,14 +16,15 @@ from pathlib import Path
 
 import psutil
 import pytest
-from live_procs import NetPair, can_make_netns
+from live_procs import NetPair, can_make_netns, can_unshare
 
 from rac.load.theory import load_theory
 from rac.logic import Atom
 from rac.observe import NodeSample, PropertySample, Verdict
 from rac.passes.observers import ObserverSpec
+from rac.runtime import placement
 from rac.runtime.diagnoser import Diagnoser
-from rac.runtime.host import HostLoop, ObserverHost
+from rac.runtime.host import HostLoop, HostStep, ObserverHost
 from rac.runtime.placement import (
     Found,
     holds_port,
@@ -33,6 +33,7 @@ from rac.runtime.placement import (
     names_node,
     prove_by_cmdline,
     prove_ros1,
+    silent_ros1,
 )
 from rac.runtime.procs import UNANSWERED, UNANSWERED_HOLD_S, ProcessProbe, Resolved
 from rac.runtime.status import STALE, row_unknown, row_verdict, unknown_row
@@ -48,17 +49,8 @@ SPECS = (
 )
 
 
-def _can_unshare() -> bool:
-    if shutil.which("unshare") is None:
-        return False
-    done = subprocess.run(
-        ["unshare", "--pid", "--fork", "--mount-proc", "true"], capture_output=True, check=False
-    )
-    return done.returncode == 0
-
-
 needs_unshare = pytest.mark.skipif(
-    not _can_unshare(), reason="unshare --pid needs root (CI runs as root)"
+    not can_unshare(), reason="unshare --pid needs root (CI runs as root)"
 )
 
 
@@ -172,42 +164,92 @@ def test_a_node_watched_through_the_middleware_has_no_properties() -> None:
     assert [(n, f.watched) for n, f in probe.take_placements()] == [("talker", "middleware")]
 
 
-def test_a_slow_answer_is_no_crash_but_a_long_silence_is() -> None:
+def test_a_slow_answer_is_no_crash_and_a_long_silence_is_unknown_not_a_crash() -> None:
     """A middleware-watched node that does not answer in time (a busy node on a loaded
-    machine) keeps its last answer for UNANSWERED_HOLD_S; one that stays silent longer,
-    or refuses (gone), is not running."""
+    machine) keeps its last answer for UNANSWERED_HOLD_S; one that stays silent longer is
+    unknown (no sample at all, never not running) until it answers or refuses (gone)."""
     answers: list[Resolved] = [Found(None, "in a container")]
     probe = ProcessProbe(["talker"], lambda n: answers[0], resolve_every_s=0.5)
 
-    def running(t: float) -> bool:
-        (sample,) = [e for e in probe.sample(t) if isinstance(e, NodeSample)]
-        return sample.running
+    def running(t: float) -> bool | None:
+        samples = [e for e in probe.sample(t) if isinstance(e, NodeSample)]
+        return samples[0].running if samples else None
 
     assert running(0.0)
     answers[0] = UNANSWERED
     assert all(running(t / 10) for t in range(5, 5 + int(UNANSWERED_HOLD_S * 10)))
-    assert not running(0.5 + UNANSWERED_HOLD_S)  # silent since 0.5 s: taken for gone
+    # Silent since 0.5 s: whether it runs is unknown, for as long as the silence lasts.
+    assert [running(t / 10) for t in range(25, 120)] == [None] * 95
+    assert probe.unknown("talker")
+    ((node, found),) = probe.take_placements()[-1:]
+    assert node == "talker" and found.unknown and found.watched == "unknown"
     answers[0] = Found(None, "in a container")
-    assert running(3.5)  # answers again
+    assert running(12.0)  # answers again
+    assert not probe.unknown("talker")
     answers[0] = UNANSWERED
-    assert running(4.0)  # the hold starts afresh
-    answers[0] = None  # refused: gone at once
-    assert not running(4.5)
+    assert running(12.5)  # the hold starts afresh
+    assert running(15.0) is None
+    answers[0] = None  # refused: gone at once, unknown no more
+    assert running(15.5) is False
+    assert not probe.unknown("talker")
     # A node whose proven process has gone is not running, answer or none.
     child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
     answers[0] = Found(child.pid, "mine")
-    assert running(5.0)
+    assert running(16.0)
     child.kill()
     child.wait(5)
     answers[0] = UNANSWERED
-    assert not running(5.5)
+    assert running(16.5) is False
 
 
-def test_getpid_that_times_out_is_unanswered_and_a_refused_one_is_gone(
+def test_the_running_atom_of_a_silent_node_is_unknown_then_restored() -> None:
+    """The host withdraws running(talker) while it is unknown (a STALE "unknown" row, out
+    of the engine's Θ, never not_running), and restores the observer's verdict once the
+    node answers; a node that refuses then is not running."""
+    answers: list[Resolved] = [Found(None, "in a container")]
+    probe = ProcessProbe(["talker"], lambda n: answers[0], resolve_every_s=0)
+    clock = [0.0]
+    host = ObserverHost(SPECS[:1], clock=lambda: clock[0])
+    loop = HostLoop(host, probe)
+    atom = Atom("running", ("talker",))
+
+    def step(t: float) -> HostStep:
+        clock[0] = t
+        return loop.step(t)
+
+    def row(t: float) -> tuple[int, str]:
+        rows = {r.name: r for r in step(t).rows or host.rows()}
+        return rows["running(talker)"].level, rows["running(talker)"].message
+
+    assert row(0.0) == (0, "running(talker)")
+    answers[0] = UNANSWERED
+    assert row(1.0) == (0, "running(talker)")  # held
+    lines = step(1.0 + UNANSWERED_HOLD_S).lines
+    assert any("watch talker: unknown" in line for line in lines), lines
+    assert any("observation unknown running(talker)" in line for line in lines)
+    for t in range(4, 30):
+        assert row(float(t)) == (STALE, "unknown")
+    assert atom not in host.current
+    answers[0] = Found(None, "in a container")
+    lines = step(30.0).lines
+    assert any("observation running(talker)" in line for line in lines), lines
+    assert host.current[atom].positive
+    answers[0] = UNANSWERED
+    for t in range(31, 40):
+        step(float(t))
+    assert atom not in host.current
+    answers[0] = None  # refused: the node is gone
+    levels = [row(40.0 + t / 10)[0] for t in range(10)]
+    assert levels[-1] == 2 and STALE not in levels[1:], levels
+
+
+def test_getpid_that_times_out_finds_the_process_by_its_port_and_a_refused_one_is_gone(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """ROS 1's liveness ask tells a node's XML-RPC server that accepts and never answers
-    (XMLRPC_TIMEOUT_S) from a port nobody listens on."""
+    """ROS 1's liveness ask: a node's XML-RPC server that accepts and never answers
+    (XMLRPC_TIMEOUT_S) is proven by the process that holds its port, watched as usual;
+    unanswered only when no local process of it is proven; a port nobody listens on is
+    gone."""
     from rac.ros1 import common
 
     mute = socket.socket()
@@ -218,19 +260,41 @@ def test_getpid_that_times_out_is_unanswered_and_a_refused_one_is_gone(
     closed_port = closed.getsockname()[1]
     closed.close()
     try:
-        uri = {
-            "mute": f"http://127.0.0.1:{mute.getsockname()[1]}/",
-            "gone": f"http://127.0.0.1:{closed_port}/",
-        }
+        port = mute.getsockname()[1]
+        uri = {"mute": f"http://127.0.0.1:{port}/", "gone": f"http://127.0.0.1:{closed_port}/"}
         monkeypatch.setattr(common, "node_uri", lambda node: uri.get(node))
         began = time.monotonic()
-        assert common.node_liveness("mute") == UNANSWERED
+        found = common.node_liveness("mute")
+        assert isinstance(found, Found) and found.pid == os.getpid(), found
+        assert f"holds its XML-RPC port {port}" in found.how
         assert time.monotonic() - began < common.XMLRPC_TIMEOUT_S + 1.0
-        assert common.resolve_pid("mute") is None  # the repairer's reading is unchanged
+        assert common.resolve_pid("mute") == found  # the repairer stops it by that pid
         assert common.node_liveness("gone") is None
         assert common.node_liveness("unregistered") is None
+        # No process holds the port here, none names the node: unanswered (unknown).
+        monkeypatch.setattr(placement, "listening_pid", lambda port: None)
+        assert common.node_liveness("mute") == UNANSWERED
+        assert common.resolve_pid("mute") is None
     finally:
         mute.close()
+
+
+def test_a_silent_node_is_found_by_its_command_line(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The master did not answer (no URI, no port): the one process naming the node.
+    named = subprocess.Popen(
+        [sys.executable, "-c", "import time; time.sleep(30)", "__name:=silent_talker"]
+    )
+    try:
+        deadline = time.time() + 10
+        found = None
+        while found is None and time.time() < deadline:
+            found = silent_ros1("silent_talker", None)
+        assert found is not None and found.pid == named.pid and "names it" in found.how
+        assert silent_ros1("ns/silent_talker", None) is None  # another namespace's name
+        assert silent_ros1("no_such_talker", None) is None
+    finally:
+        named.kill()
+        named.wait(5)
 
 
 def test_a_trusted_node_has_properties() -> None:

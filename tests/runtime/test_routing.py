@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from rac.errors import RacError
+from rac.errors import Diagnostic, RacError
 from rac.logic import Atom
 from rac.parse import parse_ram
 from rac.passes.machines import machines_of, node_placements, on_machine, spec_machine
@@ -160,6 +160,35 @@ def test_the_agent_never_acts_on_racc_or_on_a_node_outside_the_model() -> None:
     assert [r.level for r in reports] == [1] * 5
     assert "racc never acts on its own nodes" in reports[0].message
     assert "is no node of machine arm in the model" in reports[2].message
+
+
+def test_the_agent_reports_what_its_start_came_to_and_refuses_a_second_copy() -> None:
+    """The agent's actuator proves the old process gone on its own machine (rac.runtime.
+    onecopy): a copy it stopped first is in its report; one it cannot stop fails the
+    request with the actuator's code, and nothing is started."""
+
+    class Proving(Local):
+        def start_node(self, node: str) -> str:  # type: ignore[override]
+            self.calls.append(("start_node", node))
+            return "the old process pid 41200 of talker was still alive: stopped it first"
+
+    class Refusing(Local):
+        def start_node(self, node: str) -> None:
+            raise RacError([Diagnostic("RAC156", f"not starting '{node}': never two copies")])
+
+    placements = node_placements(_compiled().observers)
+    agent = Agent("arm", placements, Proving())
+    agent.request("start_node", "talker")
+    assert agent.wait_idle(5.0)
+    (done,) = agent.reports()
+    assert done.level == 0 and "stopped it first" in done.message, done.message
+    refusing = Refusing()
+    agent = Agent("arm", placements, refusing)
+    agent.request("start_node", "talker")
+    assert agent.wait_idle(5.0)
+    (failed,) = agent.reports()
+    assert failed.level == 2 and "failed: RAC156" in failed.message
+    assert refusing.calls == []
 
 
 def test_the_agents_work_does_not_hold_up_its_host_and_failures_are_reported(
