@@ -545,3 +545,21 @@ def test_a_failed_request_whose_effect_shows_anyway_completes_the_step(theory: T
         ("start_node", "hokuyo_node"),
     ]
     assert rig.entries("escalate") == []
+
+
+def test_an_atom_withdrawn_by_its_observer_is_out_of_the_repairers_observations(
+    theory: Theory,
+) -> None:
+    # A node whose process cannot be proven any more is reported unknown (a STALE row):
+    # its last verdict, running, must not make start_node look done already.
+    from rac.runtime.status import unknown_row
+
+    rig = Rig(theory, confirm_s=0.5, startup_grace_s=0.0)
+    rig.healthy()
+    rig.run(1.0)
+    rig.ex.observation_rows([unknown_row(Atom("running", ("jaguar_node",)), "n_nobs", 1.0)], 1.0)
+    rig.ex.diagnosis((("jaguar_node",),))
+    rig.run(3.0)
+    done = [e.message for e in rig.entries("start_node")]
+    assert done and not any("already" in m for m in done), done
+    assert ("start_node", "jaguar_node") in rig.robot.actions()

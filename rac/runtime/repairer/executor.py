@@ -27,7 +27,15 @@ from rac.runtime.repairer.settings import (
     at_text,
     steps_text,
 )
-from rac.runtime.status import ERROR, OK, WARN, Row, row_diagnosis, row_verdict
+from rac.runtime.status import (
+    ERROR,
+    OK,
+    WARN,
+    Row,
+    row_diagnosis,
+    row_unknown,
+    row_verdict,
+)
 
 
 class RepairExecutor:
@@ -142,8 +150,14 @@ class RepairExecutor:
         self._blind = why
 
     def observation_rows(self, rows: Iterable[Row], t: float) -> None:
-        """An ``/observations`` array, as a transport receives it."""
+        """An ``/observations`` array, as a transport receives it.  An atom its observer
+        withdrew (an ``unknown`` row) is out of Θ here too, as in the engine: its old
+        verdict would make a step look done, or give the planner a state that is gone."""
         for row in rows:
+            withdrawn = row_unknown(row)
+            if withdrawn is not None:
+                self.observations.discard(withdrawn)
+                continue
             verdict = row_verdict(row, t)
             if verdict is not None:
                 self.observe(verdict)
