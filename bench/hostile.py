@@ -13,11 +13,19 @@ one each time) to a diagnosis naming it: racc must still see faults once an atta
 The robot is tedusar on one declared machine (``machine base``), so that its observer host
 runs the racc agent the agent attack aims at.  A roscore on a free port (ROS 1) or a
 domain of its own (ROS 2); everything started is stopped by pid.
+
+``--lifetime`` then runs ``bench/lifetime.py`` for the same ROS version: the issue's attacks
+on the nodes racc starts (a node whose getPid answers slowly, the robot stopped after a
+repair, a master gap, the robot's other nodes gone), with wrong actions and processes left
+over.  racc's own nodes killed and a master restart are measured by
+tests/live/test_watchdog_live.py and tests/ros1/test_master_restart_live.py (``-s`` prints
+the figures).
 """
 
 from __future__ import annotations
 
 import argparse
+import subprocess
 import sys
 import tempfile
 import time
@@ -59,6 +67,9 @@ def main() -> int:
     parser.add_argument("--ros", type=int, choices=(1, 2), default=1)
     parser.add_argument("--seconds", type=float, default=8.0, help="each attack (default: 8)")
     parser.add_argument("--only", default="", help="comma-separated attacks (default: all)")
+    parser.add_argument(
+        "--lifetime", action="store_true", help="then run bench/lifetime.py's scenarios too"
+    )
     args = parser.parse_args()
     ros = ROS1 if args.ros == 1 else ROS2
     chosen = [a for a in args.only.split(",") if a] or list(ATTACKS)
@@ -121,7 +132,11 @@ def main() -> int:
     print("| --- | --- | ---: | ---: | --- | ---: |")
     for row in rows:
         print("| {} | {} | {} | {:.0f} % | {} | {} s |".format(*row))
-    return 0 if all(r[1] == "none" and r[2] == 0 for r in rows) else 1
+    clean = all(r[1] == "none" and r[2] == 0 for r in rows)
+    if args.lifetime:
+        lifetime = [sys.executable, str(ROOT / "bench" / "lifetime.py"), "--ros", str(args.ros)]
+        clean = subprocess.run(lifetime, check=False).returncode == 0 and clean
+    return 0 if clean else 1
 
 
 if __name__ == "__main__":
