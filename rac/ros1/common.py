@@ -267,50 +267,56 @@ class MasterRegistration:
     """Keeps this node registered with the ROS master.  rospy registers a node once, at
     start: after the master is restarted it knows none of the node's topics, so no new
     publisher ever reaches it (a node restarted afterwards is never heard again).  Once a
-    second this thread asks the master for the node; when the master answers without it,
-    every publication, subscription and service of the node is registered again (as
-    rospy's registration manager does at start) and the connections follow the master's
-    answer.  Both the loss and the return are logged."""
+    second this thread asks the master for its pid: when a master answers again after it
+    did not, or answers with another pid (it was restarted between two questions), every
+    publication, subscription and service of the node is registered again (as rospy's
+    registration manager does at start; registering twice changes nothing) and the
+    connections follow the master's answer.  Both the loss and the return are logged.
+
+    Asking the master for the node itself would not do: rospy's own logging subscribes a
+    parameter of the new master, which then knows the node, but none of its topics."""
 
     def __init__(self, bus: Ros1Bus, period_s: float = 1.0) -> None:
         self.bus, self.period_s = bus, period_s
-        self.answering = True
+        self.master: int | None = None  # the pid of the master the node registered with
+        self.lost = False  # a master did not answer since the last registration
 
     def start(self) -> None:
         threading.Thread(target=self._watch, name="racc-registration", daemon=True).start()
 
     def _watch(self) -> None:
         rospy = self.bus.rospy
-        name = "/" + self.bus.name
         while not rospy.is_shutdown():
             time.sleep(self.period_s)
-            uri = str(rospy.get_node_uri() or "")
             try:
-                code, _, found = proxy(master_uri(), 1.0).lookupNode(CALLER, name)
+                code, _, pid = proxy(master_uri(), 1.0).getPid(CALLER)
             except (OSError, xmlrpc.client.Error):
-                if self.answering:
-                    self.answering = False
+                if not self.lost:
+                    self.lost = True
                     self.bus.log(
                         2, f"t={time.time():.3f} the ROS master at {master_uri()} does not answer"
                     )
                 continue
-            if not self.answering:
-                self.answering = True
-                self.bus.log(
-                    0, f"t={time.time():.3f} the ROS master at {master_uri()} answers again"
-                )
-            if code == 1 and str(found).rstrip("/") == uri.rstrip("/"):
+            if code != 1:
+                continue
+            pid = int(pid)
+            if self.master is None and not self.lost:
+                self.master = pid  # the master of the node's start
+                continue
+            if pid == self.master and not self.lost:
                 continue
             self.bus.log(
                 1,
-                f"t={time.time():.3f} the ROS master has no record of {name} (it was "
-                "restarted): registering this node's topics again",
+                f"t={time.time():.3f} the ROS master at {master_uri()} answers "
+                + ("again" if pid == self.master else f"as a new process (pid {pid})")
+                + ": registering this node's topics with it again",
             )
             try:
-                counts = register_again(uri)
+                counts = register_again(str(rospy.get_node_uri() or ""))
             except (OSError, xmlrpc.client.Error) as err:
                 self.bus.log(2, f"t={time.time():.3f} registering again failed: {err}; retrying")
                 continue
+            self.master, self.lost = pid, False
             self.bus.log(
                 0,
                 f"t={time.time():.3f} registered again with the master: {counts[0]} "
