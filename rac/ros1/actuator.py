@@ -85,7 +85,8 @@ class Ros1Actuator:
         """The entry's command line and environment as roslaunch makes them, run in a
         session of its own under its guardian, once the old process is proven gone."""
         with self.detached.starting:
-            return self._start(node)
+            waiting = self.detached.still_starting(node)
+            return waiting if waiting is not None else self._start(node)
 
     def _start(self, node: str) -> str:
         # What roslaunch.nodeprocess.create_node_process computes, without its Process

@@ -71,6 +71,9 @@ class Ros2Actuator:
     def start_node(self, node: str) -> str:
         args, env = self._command(node)
         with self.detached.starting:
+            waiting = self.detached.still_starting(node)
+            if waiting is not None:
+                return waiting
             env = {**os.environ, **env}
             copies, unseen = local_copies(node, 2, self.detached.pid(node), env)
             stopped = prove_gone(node, copies, unseen)

@@ -39,6 +39,11 @@ def log_directory() -> Path:
     return Path(home) / "log"
 
 
+# A process racc started less than this long ago is still starting, not an old copy: a
+# step's second attempt (one step time-out after the first) waits for it.
+STARTING_S = 30.0
+
+
 @dataclass(slots=True)
 class Started:
     """A node racc started: its guardian (racc's child, which racc reaps) and the node's
@@ -47,6 +52,7 @@ class Started:
     guardian: subprocess.Popen[bytes]
     pid: int
     node: psutil.Process | None  # None: it ended before racc could look at it
+    at: float = 0.0  # when it was started (time.monotonic)
 
     def running(self) -> bool:
         try:
@@ -93,8 +99,23 @@ class Detached:
             proc: psutil.Process | None = psutil.Process(pid)
         except psutil.Error:  # it ended at once: its log says why; the executor will see
             proc = None
-        self.procs[node] = Started(guardian, pid, proc)
+        self.procs[node] = Started(guardian, pid, proc, time.monotonic())
         return pid, log
+
+    def still_starting(self, node: str, within_s: float = STARTING_S) -> str | None:
+        """A note when the process racc started for ``node`` less than ``within_s`` ago
+        still runs: it may still be starting (a Python node importing on a loaded machine
+        takes seconds), so a second start waits for it instead of replacing it."""
+        started = self.procs.get(node)
+        if started is None or not started.running():
+            return None
+        age = time.monotonic() - started.at
+        if age >= within_s:
+            return None
+        return (
+            f"pid {started.pid}, which racc started {age:.1f} s ago, still runs: waiting for "
+            "it to come up instead of starting another copy"
+        )
 
     def pid(self, node: str) -> int | None:
         """The pid of the process started for ``node``, while it runs."""

@@ -26,7 +26,7 @@ from rac.errors import RacError
 from rac.ros1 import actuator as ros1_module
 from rac.ros1.actuator import Ros1Actuator
 from rac.ros2.actuator import Ros2Actuator
-from rac.runtime.detached import Detached
+from rac.runtime.detached import STARTING_S, Detached
 from rac.runtime.onecopy import Copy, local_copies, prove_gone
 
 SLEEP = "import time; time.sleep(120)"
@@ -112,7 +112,13 @@ def test_an_alive_old_process_is_stopped_first_then_the_node_starts(procs: Procs
         assert "never two copies" in note and f"as pid {new}" in note
         # One copy only: the one racc started.
         assert [c.pid for c in local_copies(node, 2, None)[0]] == [new]
-        # Started again: the copy racc started is stopped first, as a whole session.
+        # Asked again at once (a step's second attempt, a node slow to come up under load):
+        # the copy racc just started is waited for, neither stopped nor doubled.
+        waiting = a.start_node(node)
+        assert f"pid {new}, which racc started" in waiting and "waiting for it" in waiting
+        assert a.detached.pid(node) == new and psutil.pid_exists(new)
+        # Started again later: the copy racc started is stopped first, as a whole session.
+        a.detached.procs[node].at -= STARTING_S
         again = a.start_node(node)
         assert f"the old process pid {new} (racc started it) of {node}" in again
         assert not psutil.pid_exists(new) or psutil.Process(new).status() == "zombie"
