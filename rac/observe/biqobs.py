@@ -24,6 +24,11 @@ that turn at a rate close to a limit flip between "increasing" and "constant"
 independently and read as a sustained mismatch; a real divergence (one side clearly rising
 while the other is clearly flat or falling) still counts under the θ rule.
 
+While both sides rest (each slope within its limit, :attr:`~rac.observe.qobs.TrendAt.rests`)
+a check gives no verdict either way: it neither counts a match nor a mismatch.  A robot
+standing still has an IMU whose heading wanders and odometry whose heading does not; that
+is noise on both, not a broken relation.
+
 Slopes are taken over receive times, so a starved receiver's clumps bend them: while the
 process feeding the observer is starved (:meth:`BiQObs.starved`), and for 3ω after (a trend
 needs samples up to 3ω/2 on either side of its own), a mismatch is not counted; a match is.
@@ -88,6 +93,12 @@ class BiQObs:
                 self._next += (math.floor((t - self._next) / self._step) + 1) * self._step
                 break
             a, b = pair
+            if a.rests and b.rests:
+                # Neither side moves beyond its noise: the relation says nothing (a robot
+                # standing still neither confirms nor breaks it).
+                checks += 1
+                self._next += self._step
+                continue
             matched = a.admits(b.trend) or b.admits(a.trend)
             if matched or not (self._starved or self._next < self._settled):
                 self._latch.report(self._next, self._mismatch.check(matched), out)

@@ -15,9 +15,13 @@ QObs is not an observer of its own in the model: BiQObs runs two of them.
   since the observer started (the learner's ``np.cumsum``); slopes do not see the offset.
 - β_p = ``slope`` and β_n = −``slope`` when the spec gives a slope.  Otherwise, per sample,
   β_p = max(:data:`SIGNIFICANCE`·se, floor) with the se of the sample's slope, β_n = −β_p;
-  the floor is :data:`FLOOR_FRACTION` of the :data:`FLOOR_QUANTILE` quantile of |β| over a
-  history of |β| taken once per half window (the last :data:`HISTORY`).  No trend is given
-  until the history holds :data:`MIN_HISTORY` entries (10 s at ω = 1 s).
+  the floor is the larger of :data:`FLOOR_FRACTION` of the :data:`FLOOR_QUANTILE` quantile
+  of |β| over a history of |β| taken once per half window (the last :data:`HISTORY`) and
+  the signal's noise band, the valley between its slopes at rest and in motion in that
+  history (:func:`rac.observe.noise.rest_band`, at most :data:`NOISE_CAP` of that quantile).
+  No trend is given until the history holds :data:`MIN_HISTORY` entries (10 s at ω = 1 s).
+- A trend **rests** while |β| is within its limit (:attr:`TrendAt.rests`): a BiQObs gives
+  no verdict while both of its sides rest.
 
 This deviates from the learner (:mod:`rac.learn.trends`), whose β_p/β_n are the medians of
 the positive/negative slopes of a whole recording.  A running observer has no recording,
@@ -50,6 +54,8 @@ from collections import deque
 from dataclasses import dataclass
 from enum import IntEnum
 
+from rac.observe.noise import rest_band
+
 
 class Trend(IntEnum):
     """The learner's symbol codes (``rac.learn.trends``): -, 0, +."""
@@ -65,6 +71,7 @@ FLOOR_QUANTILE = 0.95  # the typical fast slope: this quantile of |β| over the 
 HISTORY = 2000  # |β| samples kept, one per half window (about 17 minutes at ω = 1 s)
 MIN_HISTORY = 20  # samples before the first trend (10 s at ω = 1 s)
 MARGIN = 2.0  # how far from a limit a slope must lie to be clearly on one side of it
+NOISE_CAP = 0.5  # the noise band is at most this fraction of the typical fast slope
 REBASE_EVERY = 1024
 
 
@@ -179,6 +186,10 @@ class _Quantile:
     def value(self) -> float:
         return self._sorted[min(len(self._sorted) - 1, int(self._q * len(self._sorted)))]
 
+    def values(self) -> list[float]:
+        """Every number kept, sorted."""
+        return self._sorted
+
 
 @dataclass(frozen=True, slots=True)
 class TrendAt:
@@ -188,6 +199,11 @@ class TrendAt:
     trend: Trend
     slope: float
     limit: float
+
+    @property
+    def rests(self) -> bool:
+        """Its slope is within its limit: the signal moves no more than its noise."""
+        return abs(self.slope) <= self.limit
 
     def admits(self, trend: Trend) -> bool:
         """Could this trend as well have been ``trend``?  True when it is, or when the slope
@@ -223,12 +239,14 @@ class QObs:
         self.recent: deque[TrendAt] = deque()  # the trends of the last 2ω, oldest first
         self._scale = _Quantile(HISTORY, FLOOR_QUANTILE)
         self._scale_due = -math.inf  # when the next |β| joins the history
+        self._band = 0.0  # the noise band of the history (rest_band)
 
     def floor(self) -> float | None:
         """The smallest limit: a fraction of the typical fast slope; None while unknown."""
         if len(self._scale) < MIN_HISTORY:
             return None
-        return FLOOR_FRACTION * self._scale.value()
+        fast = self._scale.value()
+        return max(FLOOR_FRACTION * fast, min(self._band, NOISE_CAP * fast))
 
     def limit(self, se: float, floor: float) -> float:
         """β_p for a slope with standard error ``se``: the given slope, else the larger of
@@ -266,6 +284,7 @@ class QObs:
             if c1 >= self._scale_due:
                 self._scale.push(abs(s1))
                 self._scale_due = c1 + self.ws / 2
+                self._band = rest_band(self._scale.values())
             self._s1.append((s1, e1))
             for c2, s2, _ in l2.push(c1, s1):
                 self._s2.append(s2)

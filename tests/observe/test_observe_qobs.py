@@ -393,7 +393,8 @@ SEEDS = range(6)
 def test_biqobs_a_divergence_is_not_matched() -> None:
     for seed in SEEDS:
         out = divergence(seed)
-        assert out[0] == (10.5, "matched(a,x,b,y)")
+        # Both sides rest until 30 s: the relation says nothing, or, where noise moved a
+        # side past its limit for a moment, matched; never not matched.
         assert all(str_ == "matched(a,x,b,y)" for t, str_ in out if t <= 30.0), seed
         first = min(t for t, str_ in out if str_.startswith("not_"))
         assert first <= 40.0, seed
@@ -405,17 +406,19 @@ def test_biqobs_a_divergence_is_not_matched_within_eight_seconds_for_good() -> N
     # (one per ω/2); the slowest seed reads not matched at 37 s.
     for seed in SEEDS:
         out = divergence(seed)
-        after = [(t, str_) for t, str_ in out if t > 30.0]
-        assert after and after[0][0] <= 38.0, (seed, after)
-        assert len(after) == 1, (seed, after)
+        failed = [(t, str_) for t, str_ in out if str_.startswith("not_")]
+        assert failed and failed[0][0] <= 38.0, (seed, out)
+        assert out[-1] == failed[0], (seed, out)  # and for good
 
 
-def test_biqobs_two_independent_flat_signals_match() -> None:
-    # Two noise signals are both constant: no stale opposite trends are held between them.
+def test_biqobs_two_independent_flat_signals_say_nothing() -> None:
+    # Two noise signals both rest: no stale opposite trends are held between them, and a
+    # relation between two resting sides gives no verdict (a robot standing still neither
+    # confirms nor breaks it).
     rng = np.random.default_rng(7)
     times = np.arange(0.0, 60.0, 0.01)
     a, b = rng.normal(0, 0.05, times.size), rng.normal(0, 0.05, times.size)
-    assert feed_streams(online(), (times, a), (times, b)) == [(10.5, "matched(a,x,b,y)")]
+    assert feed_streams(online(), (times, a), (times, b)) == []
 
 
 def test_biqobs_compares_the_two_sides_at_the_same_time() -> None:

@@ -403,11 +403,12 @@ def feed_pair(
     return out
 
 
-def test_biqobs_constant_against_noisy_flat_is_matched() -> None:
+def test_biqobs_constant_against_noisy_flat_says_nothing() -> None:
+    # Both sides rest (the noise is within the noisy side's limits): no verdict either way.
     rng = np.random.default_rng(3)
     times = np.arange(0.0, 40.0, 0.01)
     out = feed_pair(build(biq()), times, np.zeros(times.size), rng.normal(0, 0.05, times.size))
-    assert texts(out) == ["matched(a,x,b,y)"]
+    assert texts(out) == []
 
 
 def test_biqobs_constant_against_a_ramp_is_not_matched() -> None:
