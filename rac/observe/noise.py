@@ -7,7 +7,9 @@ rests part of the time and moves part of the time fall into two clusters on a lo
 scale: the wander (0.01 rad/s) and the motion (0.5 rad/s), with a valley between them.
 :func:`rest_band` finds that valley; slopes below it are the signal at rest.  A signal that
 never rests (or never moves) has no valley, and then no band: its slopes are judged by
-their significance alone.
+their significance alone (:func:`noise_band`); and until its history can tell (or is
+20 s old), a relation observer counts no mismatch in which it moves beside a side at rest
+(:func:`settled`): unknown is better than a false "not matched".
 
 Pure Python (the observer core does not load NumPy); the learner calls the same function.
 """
@@ -15,7 +17,7 @@ Pure Python (the observer core does not load NumPy); the learner calls the same 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 
 BIN = 0.1  # decades per histogram bin, at least
 MIN_COUNT = 20  # slopes needed before a band is measured
@@ -67,3 +69,44 @@ def rest_band(magnitudes: Iterable[float]) -> float:
     if best is None:
         return 0.0
     return float(10 ** (lo + (best[1] + 0.5) * width))
+
+
+NOISE_CAP = 0.25  # the band is at most this fraction of the signal's fast slopes (and a
+# slope within twice the band is admitted as constant: half of the fast slope at most)
+YOUNG_K = 4.0  # a young history's band: this many times its median slope (at most the cap)
+
+
+MATURE = 40  # |β| entries (20 s at ω = 1 s) after which a history is taken as it is
+
+
+def _resting_exactly(magnitudes: Sequence[float]) -> bool:
+    """A signal that is exactly flat at rest (odometry's heading while the wheels stand)
+    and also moves: a share of slopes exactly 0 and a share that are not."""
+    flat = sum(1 for m in magnitudes if m == 0)
+    n = len(magnitudes)
+    return n >= MIN_COUNT and flat >= MIN_SIDE * n and n - flat >= MIN_SIDE * n
+
+
+def settled(magnitudes: Sequence[float]) -> bool:
+    """Whether a history (sorted |β|) can tell the signal's noise from its motion: it shows
+    the valley between them, or slopes exactly 0 beside others, or it is :data:`MATURE`."""
+    if len(magnitudes) >= MATURE:
+        return True
+    return _resting_exactly(magnitudes) or rest_band(magnitudes) > 0
+
+
+def noise_band(magnitudes: Sequence[float], fast: float) -> float:
+    """The noise band of a signal from its history of |β| (sorted) and its fast slope
+    (the :data:`~rac.observe.qobs.FLOOR_QUANTILE` quantile): the valley where there is one,
+    at most :data:`NOISE_CAP` of the fast slope; nothing for a signal exactly flat at rest.
+    Without either, a young history (a robot that has only stood, or only moved, since the
+    observer started) cannot tell noise from motion: the band is :data:`YOUNG_K` times the
+    median slope, at most the cap; a :data:`MATURE` one has none (the signal never rests,
+    or never moves: its slopes are judged by their significance)."""
+    found = rest_band(magnitudes)
+    if found > 0:
+        return min(found, NOISE_CAP * fast)
+    if not magnitudes or _resting_exactly(magnitudes) or len(magnitudes) >= MATURE:
+        return 0.0
+    median = magnitudes[len(magnitudes) // 2]
+    return min(YOUNG_K * median, NOISE_CAP * fast)

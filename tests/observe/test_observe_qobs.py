@@ -215,11 +215,27 @@ def test_the_floor_keeps_random_walk_drift_constant(monkeypatch: pytest.MonkeyPa
     assert at_rest.sum() > 2500 and turning.sum() > 50
     assert set(got[at_rest].tolist()) == {int(C)}
     assert set(got[turning].tolist()) == {int(INC)}
-    # Without the floor the significance test alone reads the drift as trends.
+    # Without the floor and the noise band the significance test alone keeps the drift
+    # constant too: an integrated side's slope error comes from the scatter of the samples
+    # it sums, not from the residuals of the random walk (which read it as trends).
     monkeypatch.setattr(qobs_module, "FLOOR_FRACTION", 0.0)
+    monkeypatch.setattr(qobs_module, "noise_band", lambda history, fast: 0.0)
+    centres, got = run(QObs(1.0, integral=True), times, rate)
+    at_rest = (phase(centres) >= 6) & (phase(centres) < 19)
+    assert np.mean(got[at_rest] == int(C)) > 0.9
+    monkeypatch.setattr(qobs_module, "SlidingMean", _NoScatter)
     centres, got = run(QObs(1.0, integral=True), times, rate)
     at_rest = (phase(centres) >= 6) & (phase(centres) < 19)
     assert np.mean(got[at_rest] == int(C)) < 0.5
+
+
+class _NoScatter(qobs_module.SlidingMean):
+    """A SlidingMean that contributes nothing: the regression's own residuals alone."""
+
+    __slots__ = ()
+
+    def _slope(self) -> tuple[float, float]:
+        return 0.0, 0.0
 
 
 def test_admits_within_a_factor_of_the_limit() -> None:
