@@ -3,9 +3,11 @@ statistics of that agreement for autocorrelated series.
 
 Each trend of one signal is checked against the other signal's trend at the same time,
 interpolated from its closest trends before and after by Table 9.1; the match ratio m/c
-counts both directions.  A check is counted only while at least one side moves beyond its
-noise: while both rest (:mod:`rac.learn.trends`) the relation says nothing, as its observer
-says nothing, so a robot standing still neither confirms nor breaks it.
+counts both directions.  A sample that rests (its slope within its limit) compares as
+constant, as the relation's observer compares it.  A check is counted only while at least
+one side moves beyond its noise: while both rest (:mod:`rac.learn.trends`) the relation says
+nothing, as its observer says nothing, so a robot standing still neither confirms nor
+breaks it.
 
 **Chance.**  Two independent signals agree by chance as often as their frequencies of
 (symbol, rest) states say: c = Σ p₁(a)·p₂(b)·match(a, b) / Σ p₁(a)·p₂(b)·counted(a, b).
@@ -50,8 +52,10 @@ _ZONE_EDGES = np.array([1 / 3, 1 / 2, 2 / 3])
 _OUTSIDE = np.int8(3)  # no symbol: a time outside the other topic's span is not checked
 _FLAT_TABLE = TABLE.reshape(-1)
 STATES = 6  # symbol × rest: state = 2·symbol + rest
-_SYM = np.arange(STATES) // 2
 _REST = np.arange(STATES) % 2 == 1
+# A resting sample compares as constant, whatever symbol Algorithm 4 held over it (as the
+# relation's observer compares it).
+_SYM = np.where(_REST, CONSTANT, np.arange(STATES) // 2)
 COUNTED = ~(_REST[:, None] & _REST[None, :])  # [a, b]: not both at rest
 MATCHED = COUNTED & (_SYM[:, None] == _SYM[None, :])
 MAX_LAG_SHARE = 0.25  # autocovariances are summed up to this share of the span

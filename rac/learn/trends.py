@@ -37,8 +37,8 @@ import numpy.typing as npt
 
 from rac.learn.fields import FloatArray
 from rac.learn.recording import TopicData
-from rac.observe.noise import rest_band
-from rac.observe.qobs import FLOOR_FRACTION, FLOOR_QUANTILE, NOISE_CAP, SIGNIFICANCE
+from rac.observe.noise import noise_band as observed_band
+from rac.observe.qobs import FLOOR_FRACTION, FLOOR_QUANTILE, SIGNIFICANCE
 from rac.passes.observers import MIN_PAIR_WINDOW_S
 
 DECREASING, CONSTANT, INCREASING = 0, 1, 2  # symbol codes: -, 0, +
@@ -119,6 +119,24 @@ def windowed_slopes(
     return np.asarray(slope, dtype=np.float64), np.nan_to_num(np.asarray(se, dtype=np.float64))
 
 
+def summed_error(
+    times: FloatArray, values: FloatArray, lo: npt.NDArray[np.intp], hi: npt.NDArray[np.intp]
+) -> FloatArray:
+    """Per sample and row, the standard error of the slope of the running sum of ``values``
+    over [lo, hi), from the scatter of the summed samples: se(mean)·n/span."""
+    v = values - values.mean(axis=1, keepdims=True)
+    c1 = np.concatenate([np.zeros((v.shape[0], 1)), np.cumsum(v, axis=1)], axis=1)
+    c2 = np.concatenate([np.zeros((v.shape[0], 1)), np.cumsum(v * v, axis=1)], axis=1)
+    n = (hi - lo).astype(np.float64)
+    s1, s2 = c1[:, hi] - c1[:, lo], c2[:, hi] - c2[:, lo]
+    span = times[np.maximum(hi - 1, lo)] - times[lo]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mean = s1 / n
+        variance = np.maximum(s2 / n - mean * mean, 0.0) * n / np.maximum(n - 1, 1.0)
+        out = np.where((n >= 3) & (span > 0), np.sqrt(variance / n) * n / span, 0.0)
+    return np.nan_to_num(np.asarray(out, dtype=np.float64))
+
+
 def history(times: FloatArray, window: float) -> npt.NDArray[np.intp]:
     """The samples whose |β| the observer keeps: the first, then one per half window."""
     keep = [0]
@@ -136,8 +154,10 @@ def noise_band(slopes: FloatArray, kept: npt.NDArray[np.intp]) -> tuple[FloatArr
     """Per row: (the floor of its limits, its noise band), from |β| at ``kept`` samples."""
     magnitude = np.abs(slopes[:, kept])
     fast = np.quantile(magnitude, FLOOR_QUANTILE, axis=1)
-    band = np.array([rest_band(row.tolist()) for row in magnitude])
-    return FLOOR_FRACTION * fast, np.minimum(band, NOISE_CAP * fast)
+    band = np.array(
+        [observed_band(sorted(row.tolist()), f) for row, f in zip(magnitude, fast, strict=True)]
+    )
+    return FLOOR_FRACTION * fast, band
 
 
 Scales = tuple[FloatArray, FloatArray]  # per signal: the floor and the noise band
@@ -202,6 +222,11 @@ def topic_trends(
         rows = np.concatenate([raw, np.cumsum(raw, axis=1)])
         signals += [Signal(topic.name, topic.fields[i], True) for i in usable]
     s1, se = windowed_slopes(topic.times, rows, lo, hi)
+    if integrate:
+        # An integrated side's noise is judged on the samples it sums, as the observer
+        # judges it (rac.observe.qobs.SlidingMean): a running sum of noise is a random walk
+        # that its own residuals read as a trend.
+        se[len(usable) :] = np.maximum(se[len(usable) :], summed_error(topic.times, raw, lo, hi))
     s2, _ = windowed_slopes(topic.times, s1, lo, hi)
     s3, _ = windowed_slopes(topic.times, s2, lo, hi)
     floors, bands = noise_band(s1, history(topic.times, window))

@@ -369,5 +369,5 @@ def test_a_model_of_one_jackal_half_holds_on_the_other(jackal_halves: tuple[Path
         assert all(c.startswith("semantic:") for r in model.related for c in r.comments[:1])
         # The dissertation's rule alone over every pair does not hold.
         old = learn(train, LearnOptions(blocks=0, blind=True, validate=False), graph=graph)
-        assert len(old.model.related) > 10
+        assert any("unexplained" in r.comments[0] for r in old.model.related)
         assert failures(old.model, test) != ()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import warnings
 
 import numpy as np
@@ -167,8 +168,10 @@ def test_evidence_counts_both_directions_and_only_checks_where_a_side_moves() ->
     counted_a = inside_a & ~(a.rest[0] & rest_b)
     counted_b = inside_b & ~(b.rest[0] & rest_a)
     assert found.checks == counted_a.sum() + counted_b.sum()
-    matched = (counted_a & (a.codes[0] == b_at_a[0])).sum()
-    matched += (counted_b & (b.codes[0] == a_at_b[0])).sum()
+    # A resting sample compares as constant.
+    own_a, other_a = np.where(a.rest[0], C, a.codes[0]), np.where(rest_b, C, b_at_a[0])
+    own_b, other_b = np.where(b.rest[0], C, b.codes[0]), np.where(rest_a, C, a_at_b[0])
+    matched = (counted_a & (own_a == other_a)).sum() + (counted_b & (own_b == other_b)).sum()
     assert found.matches == matched
 
 
@@ -228,7 +231,8 @@ def test_pooled_evidence_adds_counts_and_variances() -> None:
 def _rates(topic: TopicData, blocks: int = 1) -> TopicRates:
     start, end = float(topic.times[0]), float(topic.times[-1]) + 1e-9
     edges = np.linspace(start, end, blocks + 1)
-    found = topic_rates(topic, [(0, float(a), float(b)) for a, b in zip(edges, edges[1:])], None)
+    spans = [(0, float(a), float(b)) for a, b in itertools.pairwise(edges.tolist())]
+    found = topic_rates(topic, spans, None)
     assert found is not None
     return found
 
