@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from rosbags.rosbag1 import Writer
@@ -16,7 +17,7 @@ STORE = get_typestore(Stores.ROS1_NOETIC)
 T = STORE.types
 
 
-def _header(t: float, frame: str) -> object:
+def _header(t: float, frame: str) -> Any:
     absolute = START + t
     sec = int(absolute)
     stamp = T["builtin_interfaces/msg/Time"](sec=sec, nanosec=int((absolute - sec) * 1e9))
@@ -28,7 +29,7 @@ def heading(t: float) -> tuple[float, float]:
     return 0.8 * math.sin(t / 4.0), 0.2 * math.cos(t / 4.0)
 
 
-def odometry(t: float) -> object:
+def odometry(t: float) -> Any:
     yaw, rate = heading(t)
     vec3, point = T["geometry_msgs/msg/Vector3"], T["geometry_msgs/msg/Point"]
     quat = T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
@@ -45,7 +46,7 @@ def odometry(t: float) -> object:
     )
 
 
-def imu(t: float) -> object:
+def imu(t: float) -> Any:
     yaw, rate = heading(t)
     vec3 = T["geometry_msgs/msg/Vector3"]
     quat = T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
@@ -61,7 +62,7 @@ def imu(t: float) -> object:
     )
 
 
-def number(t: float) -> object:
+def number(t: float) -> Any:
     return T["std_msgs/msg/Float64"](data=math.sin(t))
 
 
