@@ -49,16 +49,23 @@ def rest_band(magnitudes: Iterable[float]) -> float:
         for k in range(bins)
     ]
     total = len(values)
+    # The highest bin at or before each bin, and at or after it.
+    upto, after = [0] * bins, [bins - 1] * bins
+    for k in range(1, bins):
+        upto[k] = k if smooth[k] > smooth[upto[k - 1]] else upto[k - 1]
+    for k in range(bins - 2, -1, -1):
+        after[k] = k if smooth[k] >= smooth[after[k + 1]] else after[k + 1]
     best: tuple[float, int] | None = None  # (valley / lower peak, valley bin)
+    seen: set[tuple[int, int]] = set()
     left_mass = 0.0
     for split in range(1, bins):
         left_mass += counts[split - 1]
         if left_mass < MIN_SIDE * total or total - left_mass < MIN_SIDE * total:
             continue
-        left = max(range(split), key=lambda k: smooth[k])
-        right = max(range(split, bins), key=lambda k: smooth[k])
-        if (right - left) * width < MIN_SEPARATION:
+        left, right = upto[split - 1], after[split]
+        if (left, right) in seen or (right - left) * width < MIN_SEPARATION:
             continue
+        seen.add((left, right))
         valley = min(range(left, right + 1), key=lambda k: smooth[k])
         lower = min(smooth[left], smooth[right])
         depth = smooth[valley] / max(lower, 1e-12)

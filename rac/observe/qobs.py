@@ -76,6 +76,7 @@ FLOOR_QUANTILE = 0.95  # the typical fast slope: this quantile of |β| over the 
 HISTORY = 2000  # |β| samples kept, one per half window (about 17 minutes at ω = 1 s)
 MIN_HISTORY = 20  # samples before the first trend (10 s at ω = 1 s)
 MARGIN = 2.0  # how far from a limit a slope must lie to be clearly on one side of it
+BAND_EVERY = 20  # the noise band is measured again after this many |β| join the history
 REBASE_EVERY = 1024
 
 
@@ -268,6 +269,7 @@ class QObs:
         self._scale = _Quantile(HISTORY, FLOOR_QUANTILE)
         self._scale_due = -math.inf  # when the next |β| joins the history
         self._band = 0.0  # the noise band of the history (noise_band)
+        self._band_due = 0  # history entries until it is measured again
         # The history tells noise from motion (noise.settled); a given slope needs none.
         self.settled = slope is not None
 
@@ -317,9 +319,14 @@ class QObs:
             if c1 >= self._scale_due:
                 self._scale.push(abs(s1))
                 self._scale_due = c1 + self.ws / 2
-                history = self._scale.values()
-                self._band = noise_band(history, self._scale.value())
-                self.settled = self.settled or settled(history)
+                # Measured again every BAND_EVERY entries (10 s at ω = 1 s), and at each of
+                # the first MIN_HISTORY: a band moves slowly, a valley costs a histogram.
+                self._band_due -= 1
+                if self._band_due <= 0 or len(self._scale) <= MIN_HISTORY:
+                    history = self._scale.values()
+                    self._band = noise_band(history, self._scale.value())
+                    self.settled = self.settled or settled(history)
+                    self._band_due = BAND_EVERY
             self._s1.append((s1, e1))
             for c2, s2, _ in l2.push(c1, s1):
                 self._s2.append(s2)
