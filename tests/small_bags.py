@@ -62,6 +62,19 @@ def imu(t: float) -> Any:
     )
 
 
+def joints(t: float) -> Any:
+    """Two joints swinging: positions the integrals of their velocities."""
+    position = np.array([0.5 * math.sin(t / 3.0), 0.3 * math.sin(t / 5.0)])
+    velocity = np.array([0.5 / 3.0 * math.cos(t / 3.0), 0.3 / 5.0 * math.cos(t / 5.0)])
+    return T["sensor_msgs/msg/JointState"](
+        header=_header(t, "base"),
+        name=["a", "b"],
+        position=position,
+        velocity=velocity,
+        effort=np.zeros(2),
+    )
+
+
 def number(t: float) -> Any:
     return T["std_msgs/msg/Float64"](data=math.sin(t))
 
@@ -70,6 +83,7 @@ KINDS = {
     "nav_msgs/msg/Odometry": odometry,
     "sensor_msgs/msg/Imu": imu,
     "std_msgs/msg/Float64": number,
+    "sensor_msgs/msg/JointState": joints,
 }
 
 

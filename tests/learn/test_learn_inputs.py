@@ -117,3 +117,25 @@ def test_learning_on_several_processes_learns_the_same_model() -> None:
     spread = learn(recording, LearnOptions(), graph=graph, mapper=mapper(2))
     assert format_model(spread.model) == format_model(serial.model)
     assert serial.model.related
+
+
+def test_a_joint_position_is_related_to_its_integrated_velocity_and_replayed(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # JointState's arrays, included: their means, whose relation the derivative keeps.
+    bag = small_bags.write(
+        tmp_path / "arm.bag",
+        [("/joint_states", "sensor_msgs/msg/JointState", "/arm", np.arange(0.0, 200.0, 0.02))],
+    )
+    out = tmp_path / "arm.ram"
+    argv = ["learn", str(bag), "-o", str(out), "--include-fields", "position", "velocity"]
+    assert main([*argv, "-q"]) == 0, capsys.readouterr().err
+    related = {
+        frozenset((r.a.text, r.b.text)): r.comments[0].strip() for r in load_model(out).related
+    }
+    pair = frozenset(("I(/joint_states.velocity)", "/joint_states.position"))
+    assert related[pair] == "semantic: joint position against the integral of its velocity"
+    # Replay reads the declared arrays as learning read them: no "has no position" note.
+    assert main(["replay", str(out), str(bag)]) == 0
+    captured = capsys.readouterr()
+    assert "has no" not in captured.err and "no fault diagnosed" in captured.out
