@@ -289,7 +289,7 @@ def run(args: argparse.Namespace) -> int:
             }
             for r in recording.runs
         ]
-        doc["timing"] = {"read_s": read_s, "total_s": total_s}
+        doc["timing"] = {"read_s": read_s, **dict(result.seconds), "total_s": total_s}
         write_file_atomically(Path(args.report), json.dumps(doc, indent=2) + "\n")
     if not args.quiet:
         counts = observer_counts(result.model)

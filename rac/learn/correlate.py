@@ -259,6 +259,51 @@ class TrendSet:
                 out[i] = e
         return out
 
+    def quadrants(
+        self, pairs: Sequence[tuple[Signal, Signal]], headings: Sequence[Heading]
+    ) -> list[Quadrants | None]:
+        """Per pair, its checks by the quadrant of every heading (both directions pooled);
+        the other side's states and each heading's quadrants are computed once per topic."""
+        out: list[Quadrants | None] = [None] * len(pairs)
+        if not headings:
+            return out
+        names = tuple(h[0] for h in headings)
+        at: dict[tuple[str, str], tuple[npt.NDArray[np.int8], FloatArray]] = {}
+        quads: dict[str, list[npt.NDArray[np.int64]]] = {}
+        for i, (a, b) in enumerate(pairs):
+            x, y = self.trends.get(a.topic), self.trends.get(b.topic)
+            if x is None or y is None or x.row(a) is None or y.row(b) is None:
+                continue
+            shape = (len(headings), 4)
+            inside, counted, matched = np.zeros(shape), np.zeros(shape), np.zeros(shape)
+            own_f, other_f = np.zeros((*shape, STATES)), np.zeros((*shape, STATES))
+            sides = ((x, y, x.row(a), y.row(b)), (y, x, y.row(b), x.row(a)))
+            for own, other, r_own, r_other in sides[: 1 if x.topic == y.topic else 2]:
+                assert r_own is not None and r_other is not None
+                key = (own.topic, other.topic)
+                if key not in at:
+                    at[key] = states_at(own.times, other)
+                if own.topic not in quads:
+                    quads[own.topic] = [quadrant(own.times, h) for h in headings]
+                theirs, ok = at[key]
+                keep = ok > 0
+                s_own = self._states[own.topic][r_own][keep].astype(np.intp)
+                s_other = theirs[r_other][keep].astype(np.intp)
+                flat = s_own * STATES + s_other
+                for h in range(len(headings)):
+                    q = quads[own.topic][h][keep]
+                    inside[h] += np.bincount(q, minlength=4)
+                    counted[h] += np.bincount(q, weights=COUNTED.reshape(-1)[flat], minlength=4)
+                    matched[h] += np.bincount(q, weights=MATCHED.reshape(-1)[flat], minlength=4)
+                    own_f[h] += np.bincount(q * STATES + s_own, minlength=4 * STATES).reshape(
+                        4, STATES
+                    )
+                    other_f[h] += np.bincount(q * STATES + s_other, minlength=4 * STATES).reshape(
+                        4, STATES
+                    )
+            out[i] = Quadrants(names, inside, counted, matched, own_f, other_f)
+        return out
+
     def _direction(
         self, own: str, other: str, rows_own: list[int], rows_other: list[int]
     ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], int, float]:
@@ -369,31 +414,7 @@ def quadrants(
     trends: Mapping[str, TopicTrends], pair: tuple[Signal, Signal], headings: Sequence[Heading]
 ) -> Quadrants | None:
     """One pair's checks by the quadrant of every heading (both directions pooled)."""
-    a, b = pair
-    x, y = trends.get(a.topic), trends.get(b.topic)
-    if x is None or y is None or x.row(a) is None or y.row(b) is None or not headings:
-        return None
-    shape = (len(headings), 4)
-    inside, counted, matched = np.zeros(shape), np.zeros(shape), np.zeros(shape)
-    own_f, other_f = np.zeros((*shape, STATES)), np.zeros((*shape, STATES))
-    for own, other, r_own, r_other in ((x, y, x.row(a), y.row(b)), (y, x, y.row(b), x.row(a))):
-        assert r_own is not None and r_other is not None
-        theirs, ok = states_at(own.times, _one_row(other, r_other))
-        mine = states(_one_row(own, r_own))[0].astype(np.intp)
-        keep = ok > 0
-        s_own, s_other, t = mine[keep], theirs[0][keep].astype(np.intp), own.times[keep]
-        flat = s_own * STATES + s_other
-        for h, heading in enumerate(headings):
-            q = quadrant(t, heading)
-            inside[h] += np.bincount(q, minlength=4)
-            counted[h] += np.bincount(q, weights=COUNTED.reshape(-1)[flat], minlength=4)
-            matched[h] += np.bincount(q, weights=MATCHED.reshape(-1)[flat], minlength=4)
-            own_f[h] += np.bincount(q * STATES + s_own, minlength=4 * STATES).reshape(4, STATES)
-            other_f[h] += np.bincount(q * STATES + s_other, minlength=4 * STATES).reshape(4, STATES)
-        if x.topic == y.topic and r_own == r_other:
-            break
-    names = tuple(h[0] for h in headings)
-    return Quadrants(names, inside, counted, matched, own_f, other_f)
+    return TrendSet(trends).quadrants([pair], headings)[0]
 
 
 def _one_row(t: TopicTrends, row: int) -> TopicTrends:

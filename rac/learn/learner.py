@@ -11,6 +11,7 @@ ordinary model that ``compile_model`` turns into the diagnosis model.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
@@ -50,6 +51,7 @@ class LearnResult:
     options: LearnOptions = field(default_factory=LearnOptions)
     judged: tuple[Judged, ...] = ()  # every candidate relation with its verdict
     unstable: int = 0  # candidates whose verdict changed between the two splits
+    seconds: tuple[tuple[str, float], ...] = ()  # (phase, seconds) of the learning
 
 
 def rate_summary(
@@ -77,6 +79,14 @@ def learn(
     """Algorithm 15 over recorded runs; the structure from ``base``, ``graph`` or them."""
     notes: list[str] = []
     undeclared: list[str] = []  # learned, but not declarable for want of a publisher
+    clock = [time.perf_counter()]
+    seconds: list[tuple[str, float]] = []
+
+    def lap(phase: str) -> None:
+        now = time.perf_counter()
+        seconds.append((phase, now - clock[0]))
+        clock[0] = now
+
     if base is None:
         recording, graph = without_tools(recording, graph, Exclusions(options.include), notes)
     recording, graph = excluded(recording, graph, options.exclude, notes)
@@ -86,6 +96,7 @@ def learn(
     learned_topics, rates = learn_rates(
         topics, timing.topics, published, options, notes, undeclared
     )
+    lap("rates_s")
     # Property observers (Algorithm 15, lines 11-14).
     stray = sorted({s.node for s in properties} - {n.name.value for n in nodes})
     if stray:
@@ -107,6 +118,7 @@ def learn(
         undeclared,
         mapper,
     )
+    lap("relations_s")
     if base is not None:
         _note_dropped_relations(base, relations.related, options, notes)
     needed: dict[str, list[str]] = {}
@@ -148,6 +160,7 @@ def learn(
             model = checked
             if rates_kept:
                 break
+    lap("check_s")
     kept = {(r.a.text, r.b.text) for r in model.related}
     learned = tuple(rel for rel in relations.kept if _declared(rel) in kept)
     return LearnResult(
@@ -159,6 +172,7 @@ def learn(
         options,
         relations.judged,
         relations.unstable,
+        tuple(seconds),
     )
 
 

@@ -15,7 +15,14 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 from rac.ir import Node, Related
-from rac.learn.candidates import GRAPH, Candidate, TopicInfo, candidate_fields, candidates
+from rac.learn.candidates import (
+    GRAPH,
+    Candidate,
+    TopicInfo,
+    candidate_fields,
+    candidates,
+    copies,
+)
 from rac.learn.correlate import pooled
 from rac.learn.holdout import HeldOut, heading_dependence, held_out, passes_fit, with_holm
 from rac.learn.options import LearnOptions
@@ -158,9 +165,23 @@ def learn_relations(
     if not found:
         return Relations((), (), (), (), 0)
     pairs: list[Pair] = [(c.a, c.b) for c in found]
+    # The headings of the measurements: a relayed copy of a heading has its quadrants.
+    derived = copies(nodes, {t.name: t.msg_type for t in infos})
+    heading_topics = frozenset(t.name for t in infos if "yaw" in t.fields) - derived
+    # A field against its own relayed copy cannot depend on the heading: only the other
+    # pairs are split by heading quadrant.
+    turning = [(c.a, c.b) for c in found if c.a.field != c.b.field or c.reading.kind != GRAPH]
 
     def one(segment: int) -> object:
-        return summarize_relations(recording, segment, pairs, options.blocks, options.occurrences)
+        return summarize_relations(
+            recording,
+            segment,
+            pairs,
+            options.blocks,
+            options.occurrences,
+            heading_topics,
+            turning,
+        )
 
     summaries = [s for s in mapper(one, segments(recording)) if isinstance(s, RelationSummary)]
     summary = merge_relations(summaries)

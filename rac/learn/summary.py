@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rac.learn.correlate import Heading, PairEvidence, Quadrants, TrendSet, quadrants
+from rac.learn.correlate import Heading, PairEvidence, Quadrants, TrendSet
 from rac.learn.frequency import TopicRates, topic_rates
 from rac.learn.holdout import Block, block_topic, run_blocks, splits
 from rac.learn.recording import Recording, TopicData
@@ -170,11 +170,13 @@ def block_trends(
     return out
 
 
-def headings(recording: Recording, block: Block) -> list[Heading]:
-    """Every yaw signal of the recording on one block."""
+def headings(
+    recording: Recording, block: Block, topics: frozenset[str] | None = None
+) -> list[Heading]:
+    """Every yaw signal of the recording (of ``topics``, where given) on one block."""
     out: list[Heading] = []
     for t in recording.topics:
-        if "yaw" in t.fields:
+        if "yaw" in t.fields and (topics is None or t.name in topics):
             part = block_topic(t, block)
             if part.count > 1:
                 out.append((f"{t.name}.yaw", part.times, part.values[t.fields.index("yaw")]))
@@ -182,9 +184,18 @@ def headings(recording: Recording, block: Block) -> list[Heading]:
 
 
 def summarize_relations(
-    recording: Recording, segment: int, pairs: Sequence[Pair], blocks: int, occurrences: int
+    recording: Recording,
+    segment: int,
+    pairs: Sequence[Pair],
+    blocks: int,
+    occurrences: int,
+    heading_topics: frozenset[str] | None = None,
+    turning: Sequence[Pair] | None = None,
 ) -> RelationSummary:
-    """One run's agreement of every pair on each block of each split."""
+    """One run's agreement of every pair on each block of each split, and, for the pairs
+    of ``turning`` (all when None), per quadrant of the headings of ``heading_topics``
+    (every yaw signal when None)."""
+    judged_pairs = list(pairs if turning is None else turning)
     cut = splits(recording, segment, blocks) or (run_blocks(recording, segment, 1),)
     scales = run_scales(recording, segment, pairs, occurrences)
     per_split: list[tuple[BlockEvidence, ...]] = []
@@ -193,12 +204,13 @@ def summarize_relations(
         found: list[BlockEvidence] = []
         for block in chosen:
             trends = block_trends(recording, block, pairs, occurrences, scales)
-            evidence = TrendSet(trends).evidence(pairs)
+            judged = TrendSet(trends)
+            evidence = judged.evidence(pairs)
             found.append({p: e for p, e in zip(pairs, evidence, strict=True) if e is not None})
             if k == 0:
-                near = headings(recording, block)
-                for pair in pairs:
-                    q = quadrants(trends, pair, near)
+                near = headings(recording, block, heading_topics)
+                found_q = judged.quadrants(judged_pairs, near)
+                for pair, q in zip(judged_pairs, found_q, strict=True):
                     if q is not None:
                         quads[pair] = quads[pair] + q if pair in quads else q
         per_split.append(tuple(found))
