@@ -20,10 +20,10 @@ import sys
 import numpy as np
 
 from rac.ir import FieldRef
-from rac.learn.correlate import pair_matches
+from rac.learn.correlate import TrendSet
 from rac.learn.fields import FieldSelector
 from rac.learn.recording import TopicData
-from rac.learn.trends import TopicTrends, topic_trends
+from rac.learn.trends import Signal, TopicTrends, topic_trends
 from rac.load.bags import read_recording
 from rac.load.files import load_model
 from rac.passes.observers import biqobs_params
@@ -31,22 +31,16 @@ from rac.passes.observers import biqobs_params
 OCCURRENCES = 10
 
 
-def _row(trends: TopicTrends, ref: FieldRef, integrated: bool) -> int:
-    for i, s in enumerate(trends.signals):
-        if s.field == ref.field and s.integrated == integrated:
-            return i
-    raise KeyError(f"{ref.text}: no signal in the recording (constant or missing)")
-
-
 def _ratio(
     trends: dict[str, TopicTrends], a: FieldRef, ia: bool, b: FieldRef, ib: bool
 ) -> tuple[float, float]:
-    x, y = trends[a.topic], trends[b.topic]
-    m, checks = pair_matches(x, y)
-    r, c = _row(x, a, ia), _row(y, b, ib)
-    freq = [(t.codes[i] == s).mean() for t, i in ((x, r), (y, c)) for s in (0, 1, 2)]
-    chance = sum(freq[k] * freq[3 + k] for k in range(3))
-    return float(m[r, c] / checks), float(chance)
+    """The match ratio (checks while a side moves) and its chance level, as racc learn
+    counts them (rac.learn.correlate)."""
+    pair = (Signal(a.topic, a.field, ia), Signal(b.topic, b.field, ib))
+    (found,) = TrendSet(trends).evidence([pair])
+    if found is None:
+        raise KeyError(f"{a.text} ~ {b.text}: no trend of a side (constant or missing)")
+    return found.ratio, found.chance
 
 
 def _common_window(data: dict[str, TopicData], a: str, b: str, ws: float) -> dict[str, TopicTrends]:

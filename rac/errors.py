@@ -102,6 +102,10 @@ class RacError(Exception):
         self.source = source
         super().__init__("\n".join(d.render() for d in self.diagnostics[:MAX_SHOWN]))
 
+    def __reduce__(self) -> tuple[type[RacError], tuple[tuple[Diagnostic, ...], str | None]]:
+        # As it was made, not from its message: a worker process raises it to its parent.
+        return (type(self), (self.diagnostics, self.source))
+
     def render(self) -> str:
         """Every diagnostic, up to :data:`MAX_SHOWN` of them, then how many more there are."""
         lines = self.source.splitlines() if self.source is not None else None
@@ -205,6 +209,8 @@ CODES: dict[str, str] = {
     "RAC084": "output already exists",
     "RAC085": "invalid faults file (ground truth)",
     "RAC086": "ground truth does not fit the recording or the model",
+    # Learning and evaluation that mean something (issue 35).
+    "RAC160": "the ground truth lies outside the replayed recording",
     "RAC110": "a repair step did not take effect (escalated)",
     "RAC111": "a node cannot be restarted from the launch file",
     "RAC112": "unknown repair action",

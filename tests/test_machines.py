@@ -12,7 +12,7 @@ from rac.errors import RacError, Severity
 from rac.fmt import format_model
 from rac.interchange import dumps, parse_json
 from rac.learn.graph import parse_graph
-from rac.learn.learner import machines_from_graph
+from rac.learn.structure import machines_from_graph
 from rac.parse import parse_ram
 from rac.passes.validate import validate
 from rac.runtime.record import graph_yaml

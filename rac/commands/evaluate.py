@@ -124,7 +124,7 @@ def run(args: argparse.Namespace) -> int:
     from rac.evaluate.parallel import default_jobs
     from rac.evaluate.report import render, to_json
     from rac.replay.engine import ReplayOptions
-    from rac.replay.load import load_runs, needs_of, properties_for, truth_for
+    from rac.replay.load import load_runs, needs_of, properties_for, truth_for, truth_in_span
 
     _check(args)
     check_output_file(args.output)
@@ -147,7 +147,8 @@ def run(args: argparse.Namespace) -> int:
         if not args.quiet:
             for note in inputs.notes:
                 print(f"note: {note}", file=sys.stderr)
-        runs.append(TestRun(path, inputs, truth.fitted(inputs.duration).faults))
+        fitted = truth_in_span(truth, inputs.duration, path)
+        runs.append(TestRun(path, inputs, fitted.faults, inputs.duration))
     options = ReplayOptions(diagnose_every=args.diagnose_every, max_card=args.max_card)
     jobs = args.jobs or default_jobs()
     if not args.quiet and sys.stderr.isatty():

@@ -18,6 +18,7 @@ from rac.learn.options import (
     DEFAULT_BLOCKS,
     DEFAULT_MIN_LIFT,
     DEFAULT_OCCURRENCES,
+    DEFAULT_PER_EDGE,
     DEFAULT_Q,
     DEFAULT_SIGMAS,
     DEFAULT_SIGNIFICANCE,
@@ -46,7 +47,9 @@ def register(sub: Any) -> None:
         "  racc learn run1.bag run2.bag --base robot.ram -Q 0.8 --alpha 10 -o m.ram "
         "--report m.json\n"
         "  racc learn ros2_run/ --graph graph.yaml --properties run.properties.csv -o m.ram\n"
-        "  racc learn run.bag --include-fields 'ranges' 'header.*' -o m.ram",
+        "  racc learn run.bag --include-fields 'ranges' 'header.*' -o m.ram\n"
+        "  racc learn day1.bag day2.bag day3.bag --graph graph.yaml --exclude '/camera/*' "
+        "-o m.ram",
     )
     parser.add_argument(
         "runs", metavar="RUN", nargs="+", help="a ROS 1 .bag file or a ROS 2 bag directory"
@@ -115,11 +118,36 @@ def register(sub: Any) -> None:
         "pair tried (default: %(default)s)",
     )
     parser.add_argument(
-        "--all-pairs",
+        "--blind",
         action="store_true",
-        help="held-out validation: judge every pair against the number of all pairs tried "
-        "(default: pairs along the data flow of --base or --graph and pairs of the same "
-        "quantity, such as yaw with yaw, are judged first, against their own number)",
+        help="also try the field pairs that neither the graph (a node's input against its "
+        "output) nor the message types (one quantity measured twice: a heading, a turn "
+        "rate, a velocity) explain; they are judged against the number of every pair tried "
+        "and marked unexplained (default: only when nothing else applies)",
+    )
+    parser.add_argument(
+        "--per-edge",
+        metavar="N",
+        type=int,
+        default=DEFAULT_PER_EDGE,
+        help="relations kept per graph edge (a node's input against its output), the "
+        "strongest first; 0 keeps all (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--exclude",
+        metavar="PATTERN",
+        nargs="+",
+        default=[],
+        help="leave out the topics matching these globs ('/imu_data', '/camera/*'); with "
+        "--graph, recorded topics the graph does not name are left out too (default: none)",
+    )
+    parser.add_argument(
+        "-j",
+        "--jobs",
+        metavar="N",
+        type=int,
+        default=0,
+        help="read and summarise the runs on N processes (default: one per core)",
     )
     parser.add_argument(
         "--properties",
@@ -184,6 +212,10 @@ def _check_options(args: argparse.Namespace) -> None:
         problems.append("--occurrences must be at least 2")
     if args.sigmas < 0:
         problems.append("--sigmas must not be negative")
+    if args.per_edge < 0:
+        problems.append("--per-edge must not be negative")
+    if args.jobs < 0:
+        problems.append("--jobs must not be negative")
     if problems:
         print("racc learn: error: " + "; ".join(problems), file=sys.stderr)
         raise SystemExit(2)
@@ -198,6 +230,7 @@ def run(args: argparse.Namespace) -> int:
     from rac.learn.properties import property_stats
     from rac.load.bags import read_recording
     from rac.load.recorded import load_graph, load_properties
+    from rac.parallel import default_jobs, mapper
 
     _check_options(args)
     check_output_file(args.output)
@@ -217,9 +250,14 @@ def run(args: argparse.Namespace) -> int:
             t.name.value: frozenset(f.value for f in t.fields) for t in base.topics if t.fields
         }
         only = frozenset(t.name.value for t in base.topics)
+    elif graph is not None:
+        # Topics outside the graph are not the robot the graph describes: not read at all,
+        # so that their names cannot collide with its topics' (named in a note).
+        only = frozenset(t for g in graph.nodes for t in (*g.publications, *g.subscriptions))
     selector = FieldSelector(declared, tuple(args.include_fields))
+    jobs = args.jobs or default_jobs()
     started = time.perf_counter()
-    recording = read_recording(args.runs, selector, only)
+    recording = read_recording(args.runs, selector, only, jobs)
     read_s = time.perf_counter() - started
     options = LearnOptions(
         alpha=args.alpha,
@@ -233,9 +271,13 @@ def run(args: argparse.Namespace) -> int:
         significance=args.significance,
         name=args.name,
         include=tuple(args.include),
-        all_pairs=args.all_pairs,
+        exclude=tuple(args.exclude),
+        blind=args.blind,
+        per_edge=args.per_edge,
     )
-    result = learn(recording, options, base=base, graph=graph, properties=properties)
+    result = learn(
+        recording, options, base=base, graph=graph, properties=properties, mapper=mapper(jobs)
+    )
     compile_model(result.model)  # the learned model must compile; a failure here is a bug
     total_s = time.perf_counter() - started
     for note in () if args.quiet else result.notes:
@@ -252,7 +294,7 @@ def run(args: argparse.Namespace) -> int:
             }
             for r in recording.runs
         ]
-        doc["timing"] = {"read_s": read_s, "total_s": total_s}
+        doc["timing"] = {"read_s": read_s, **dict(result.seconds), "total_s": total_s}
         write_file_atomically(Path(args.report), json.dumps(doc, indent=2) + "\n")
     if not args.quiet:
         counts = observer_counts(result.model)

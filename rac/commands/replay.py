@@ -89,7 +89,14 @@ def _messages(inputs: Any) -> str:
 def run(args: argparse.Namespace) -> int:
     from rac.evaluate.score import score_run
     from rac.replay.engine import ReplayOptions, replay
-    from rac.replay.load import load_runs, needs_of, properties_for, replayable, truth_for
+    from rac.replay.load import (
+        load_runs,
+        needs_of,
+        properties_for,
+        replayable,
+        truth_for,
+        truth_in_span,
+    )
     from rac.replay.plot import draw, require_matplotlib
     from rac.replay.timeline import summary_lines, to_jsonl
 
@@ -111,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     inputs = load_runs(args.runs, properties_for(args.runs, args.properties), needs_of([model]))
     if truth is not None:
-        truth = truth.fitted(inputs.duration)
+        truth = truth_in_span(truth, inputs.duration, inputs.path)
     if not args.quiet:
         for note in [*truth_notes, *inputs.notes]:
             print(f"note: {note}", file=sys.stderr)
@@ -141,11 +148,27 @@ def run(args: argparse.Namespace) -> int:
         score = score_run(timeline, truth.faults)
         for o in score.outcomes:
             f = o.fault
-            what = f"reported at {o.first:.1f} s" if o.first is not None else "NOT reported"
-            print(f"fault {f.kind} {f.target} {f.start:g}-{f.end:g} s: {what}")
+            print(f"fault {f.kind} {f.target} {f.start:g}-{f.end:g} s: {_outcome(o)}")
         for fp in score.false_positives:
             print(f"false positive at {fp.episode.start:.1f} s ({fp.kind})")
+        if score.healthy_s > 0:
+            hours = score.healthy_s / 3600
+            print(
+                f"false episodes: {len(score.false_positives)} in {score.healthy_s:.0f} s of "
+                f"healthy recording ({len(score.false_positives) / hours:.1f} per hour, "
+                f"{score.false_s:.1f} s of them)"
+            )
     return 0
+
+
+def _outcome(o: Any) -> str:
+    """How a fault fared: detected when and how fast, and whether the culprit was isolated."""
+    if o.first is None:
+        return "NOT reported"
+    text = f"reported at {o.first:.1f} s ({o.latency:.1f} s after it began)"
+    if o.isolated:
+        return f"{text}, isolated"
+    return f"{text}, not isolated ({o.candidates} candidate diagnoses)"
 
 
 class _Progress:

@@ -36,6 +36,7 @@ class TestRun:
     path: str
     inputs: RunInputs
     faults: tuple[InjectedFault, ...]
+    duration: float = 0.0  # seconds replayed (the recording's)
 
 
 @dataclass(frozen=True, slots=True)
@@ -44,6 +45,8 @@ class ModelResult:
     observers: dict[str, int]  # kind -> count (Table 10.1)
     outcomes: tuple[tuple[str, FaultOutcome], ...]  # (run, outcome), runs in order
     false_positives: tuple[tuple[str, FalsePositive], ...]
+    healthy_s: float = 0.0  # seconds of the runs outside every fault's window
+    false_s: float = 0.0  # seconds of false episodes
 
     @property
     def vector(self) -> tuple[int, ...]:
@@ -55,7 +58,27 @@ class ModelResult:
             return sum(o.reported for _, o in self.outcomes if o.fault.kind == kind)
         if what == "FN":
             return sum(not o.reported for _, o in self.outcomes if o.fault.kind == kind)
+        if what == "IS":
+            return sum(o.isolated for _, o in self.outcomes if o.fault.kind == kind)
         return sum(1 for _, fp in self.false_positives if fp.kind == kind)
+
+    def latencies(self, kind: str | None = None) -> list[float]:
+        """The detection latencies, of one kind of fault or of all."""
+        return [
+            o.latency
+            for _, o in self.outcomes
+            if o.latency is not None and (kind is None or o.fault.kind == kind)
+        ]
+
+    @property
+    def false_per_hour(self) -> float | None:
+        """False episodes per hour of healthy recording (None: no healthy recording)."""
+        return len(self.false_positives) * 3600 / self.healthy_s if self.healthy_s else None
+
+    @property
+    def false_time_per_hour(self) -> float | None:
+        """Seconds of false episodes per hour of healthy recording."""
+        return self.false_s * 3600 / self.healthy_s if self.healthy_s else None
 
 
 @dataclass(frozen=True, slots=True)
@@ -99,7 +122,11 @@ def evaluate(
     def one(pair: tuple[int, int]) -> RunScore:
         c, r = candidates[pair[0]], runs[pair[1]]
         timeline = replay(
-            c.model.specs, c.model.theory, r.inputs.events, r.inputs.duration, replay_options
+            c.model.specs,
+            c.model.theory,
+            r.inputs.events,
+            r.duration or r.inputs.duration,
+            replay_options,
         )
         return score_run(timeline, r.faults, grace)
 
@@ -111,5 +138,7 @@ def evaluate(
         fps = tuple(
             (r.path, fp) for j, r in enumerate(runs) for fp in scores[(i, j)].false_positives
         )
-        results.append(ModelResult(c, observer_counts(c.model), outcomes, fps))
+        healthy = sum(scores[(i, j)].healthy_s for j in range(len(runs)))
+        false_s = sum(scores[(i, j)].false_s for j in range(len(runs)))
+        results.append(ModelResult(c, observer_counts(c.model), outcomes, fps, healthy, false_s))
     return Evaluation(tuple(results), tuple(runs), grace)

@@ -1,42 +1,6 @@
-"""Independent work items over the machine's cores: learning the models of a grid and
-replaying every model over every run.
+"""The parallel map of ``racc evaluate`` (it lives in :mod:`rac.parallel`, which reading and
+learning share)."""
 
-Workers are forked, so they inherit what the parent loaded (recordings, event streams)
-without copying it through pipes; only the items and the results travel.  Where fork is
-not available, or one job is asked for, the items run one after another in this process.
-"""
+from rac.parallel import default_jobs, run_all
 
-from __future__ import annotations
-
-import multiprocessing
-import os
-from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
-from typing import Any, TypeVar
-
-T = TypeVar("T")
-R = TypeVar("R")
-
-_TASK: list[Callable[[Any], Any]] = []  # the function the forked workers call
-
-
-def default_jobs() -> int:
-    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1)
-
-
-def _call(item: Any) -> Any:
-    return _TASK[0](item)
-
-
-def run_all(fn: Callable[[T], R], items: Sequence[T], jobs: int) -> list[R]:
-    """``[fn(i) for i in items]``, in order, on up to ``jobs`` forked workers."""
-    jobs = min(jobs, len(items))
-    if jobs <= 1 or "fork" not in multiprocessing.get_all_start_methods():
-        return [fn(i) for i in items]
-    _TASK[:] = [fn]
-    try:
-        context = multiprocessing.get_context("fork")
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
-            return list(pool.map(_call, items))
-    finally:
-        _TASK.clear()
+__all__ = ["default_jobs", "run_all"]

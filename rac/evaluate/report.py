@@ -90,6 +90,41 @@ def _outcome_table(ev: Evaluation, markdown: bool) -> str:
     return table(headers, rows, markdown)
 
 
+def _mean(values: Sequence[float]) -> float | None:
+    return sum(values) / len(values) if values else None
+
+
+def _honest_table(ev: Evaluation, markdown: bool) -> str:
+    """Per model: faults detected, isolated, the mean latency, and false episodes (their
+    number and time per hour of healthy recording)."""
+    faults = sum(len(r.faults) for r in ev.runs)
+    headers = [
+        "model",
+        f"detected (of {faults})",
+        "isolated",
+        "mean latency (s)",
+        "false episodes",
+        "per hour",
+        "false s per hour",
+        "healthy s",
+    ]
+    rows: list[list[object]] = []
+    for m in ev.results:
+        rows.append(
+            [
+                m.candidate.label,
+                sum(m.vector),
+                sum(o.isolated for _, o in m.outcomes),
+                _mean(m.latencies()),
+                len(m.false_positives),
+                m.false_per_hour,
+                m.false_time_per_hour,
+                round(m.healthy_s, 1),
+            ]
+        )
+    return table(headers, rows, markdown)
+
+
 def _vector_table(ev: Evaluation, markdown: bool) -> str:
     n = len(ev.results[0].vector) if ev.results else 0
     headers = ["model", *(str(i) for i in range(1, n + 1)), "mu", "sigma"]
@@ -179,6 +214,9 @@ def render(ev: Evaluation, markdown: bool) -> str:
         f"grace {ev.grace:g} s",
         _outcome_table(ev, markdown),
         "",
+        f"{head}Detection, isolation, latency and false episodes",
+        _honest_table(ev, markdown),
+        "",
         f"{head}Per fault, 1 = correctly reported (§10.2.3)",
         _vector_table(ev, markdown),
         "",
@@ -241,9 +279,16 @@ def _model_json(m: ModelResult, ev: Evaluation) -> dict[str, Any]:
                 "target": o.fault.target,
                 "reported": o.reported,
                 "first": o.first,
+                "detected": o.reported,
+                "latency_s": o.latency,
+                "isolated": o.isolated,
+                "candidates": o.candidates,
             }
             for run, o in m.outcomes
         ],
+        "healthy_s": m.healthy_s,
+        "false_episodes_per_hour": m.false_per_hour,
+        "false_s_per_hour": m.false_time_per_hour,
         "false_positives": [
             {
                 "run": run,

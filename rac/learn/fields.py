@@ -49,8 +49,12 @@ class FieldSelector:
         )
 
     def wanted(self, topic: str, path: str, *, plain: bool) -> bool:
-        """``plain`` is False for arrays and header fields, which only patterns include."""
+        """``plain`` is False for arrays and header fields, which only patterns include, or
+        a model that declares them (a learned JointState relation on ``position`` is read
+        in replay and on the robot as it was learned: the mean of the array)."""
         if self.included(topic, path):
+            return True
+        if self.declared is not None and path in self.declared.get(topic, ()):
             return True
         if not plain:
             return False

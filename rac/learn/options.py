@@ -11,6 +11,7 @@ DEFAULT_SIGMAS = 3.0
 DEFAULT_MIN_LIFT = 0.05
 DEFAULT_BLOCKS = 4  # time blocks of one training run for held-out validation
 DEFAULT_SIGNIFICANCE = 0.05  # family-wise error rate (Holm) of the held-out tests
+DEFAULT_PER_EDGE = 1  # relations kept per graph edge (a node's input and output)
 
 
 @dataclass(frozen=True, slots=True)
@@ -26,4 +27,6 @@ class LearnOptions:
     significance: float = DEFAULT_SIGNIFICANCE  # Holm's family-wise error rate
     name: str | None = None  # the robot's name when there is no base model
     include: tuple[str, ...] = ()  # keep these racc/tool nodes and topics (globs)
-    all_pairs: bool = False  # no tier of plausible pairs: every pair against all pairs
+    exclude: tuple[str, ...] = ()  # leave these topics out (globs)
+    blind: bool = False  # also try the pairs neither the graph nor the types explain
+    per_edge: int = DEFAULT_PER_EDGE  # relations kept per graph edge (0: all)

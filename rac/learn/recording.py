@@ -6,6 +6,7 @@ field values.  :func:`merge_runs` joins several runs into one training set (Algo
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -31,6 +32,9 @@ class TopicData:
     segments: IntArray  # which run each message came from
     fields: tuple[str, ...]
     values: FloatArray  # shape (len(fields), len(times))
+    # The publisher's header stamps (seconds on its clock, NaN where a message has none);
+    # None when the type has no header.
+    stamps: FloatArray | None = None
 
     @property
     def count(self) -> int:
@@ -41,6 +45,19 @@ class TopicData:
         same_run = self.segments[1:] == self.segments[:-1]
         deltas: FloatArray = np.diff(self.times)[same_run]
         return deltas
+
+    def part(self, keep: npt.NDArray[np.bool_]) -> TopicData:
+        """The messages where ``keep`` holds."""
+        return TopicData(
+            self.name,
+            self.msg_type,
+            self.publishers,
+            self.times[keep],
+            self.segments[keep],
+            self.fields,
+            self.values[:, keep],
+            None if self.stamps is None else self.stamps[keep],
+        )
 
 
 @dataclass(frozen=True, slots=True)
@@ -102,6 +119,7 @@ def _shift(topic: TopicData, shift: float, segment: int) -> TopicData:
         np.full(topic.times.size, segment, dtype=np.int64),
         topic.fields,
         topic.values,
+        topic.stamps,
     )
 
 
@@ -118,6 +136,9 @@ def _concat(parts: list[TopicData], runs: Sequence[Run]) -> TopicData:
     for i, f in enumerate(first.fields):
         if f in WRAPPING:
             values[i] = np.unwrap(values[i])
+    stamps = None
+    if all(p.stamps is not None for p in parts):
+        stamps = np.concatenate([p.stamps for p in parts if p.stamps is not None])
     return TopicData(
         first.name,
         first.msg_type,
@@ -126,6 +147,7 @@ def _concat(parts: list[TopicData], runs: Sequence[Run]) -> TopicData:
         np.concatenate([p.segments for p in parts]),
         first.fields,
         values,
+        stamps,
     )
 
 
@@ -148,11 +170,21 @@ def message_stream(
     index = np.concatenate([rows for _, rows in parts])
     order = np.argsort(times, kind="stable")
     columns = [t.values.T.tolist() for t, _ in parts]  # per topic: the values of each message
+    stamps = [_stamp_list(t) for t, _ in parts]
     out: list[Message] = []
     append = out.append
     for t, i, r in zip(
         times[order].tolist(), which[order].tolist(), index[order].tolist(), strict=True
     ):
         topic = parts[i][0]
-        append(Message(t, topic.name, dict(zip(topic.fields, columns[i][r], strict=True))))
+        values = dict(zip(topic.fields, columns[i][r], strict=True))
+        column = stamps[i]
+        append(Message(t, topic.name, values, None if column is None else column[r]))
     return out
+
+
+def _stamp_list(topic: TopicData) -> list[float | None] | None:
+    """The header stamps of a topic's messages as observer inputs (None: no stamp)."""
+    if topic.stamps is None:
+        return None
+    return [s if math.isfinite(s) and s > 0 else None for s in topic.stamps.tolist()]

@@ -13,10 +13,11 @@ between two runs.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from rac.ir import Model
 from rac.learn.recording import Recording, message_stream
+from rac.learn.summary import Mapper, serial
 from rac.observe.base import Observer
 from rac.observe.biqobs import BiQObs
 from rac.observe.build import build_all
@@ -36,8 +37,9 @@ class Failure:
     near: bool = False  # it came near a fault (a BiQObs's count above θ/2), not to one
 
 
-def failures(model: Model, recording: Recording) -> tuple[Failure, ...]:
-    """The GObs and BiQObs of ``model`` that report a fault on a run of ``recording``."""
+def failures(model: Model, recording: Recording, mapper: Mapper = serial) -> tuple[Failure, ...]:
+    """The GObs and BiQObs of ``model`` that report a fault on a run of ``recording``;
+    the runs are replayed through ``mapper`` (in parallel, when it spreads them)."""
     specs = [s for s in compile_model(model).observers if s.kind in CHECKED]
     where = _positions(model)
     # A grid of models learned from one recording shares most observers: each spec (its
@@ -47,7 +49,7 @@ def failures(model: Model, recording: Recording) -> tuple[Failure, ...]:
         memo = _MEMO[id(recording)] = (recording, {})
     known = memo[1]
     todo = [s for s in specs if (s.kind, s.params) not in known]
-    for spec, outcome in zip(todo, _replay(todo, recording), strict=True):
+    for spec, outcome in zip(todo, _replay(todo, recording, mapper), strict=True):
         known[(spec.kind, spec.params)] = outcome
     found = []
     for spec in specs:
@@ -68,26 +70,46 @@ def _near(obs: Observer) -> bool:
     return counter is not None and 2 * counter.count > counter.theta
 
 
-def _replay(specs: list[ObserverSpec], recording: Recording) -> list[Outcome | None]:
-    """Per spec, the run and time of its first fault (or near fault) on the recording."""
+def _replay(
+    specs: list[ObserverSpec], recording: Recording, mapper: Mapper
+) -> list[Outcome | None]:
+    """Per spec, the run and time of its first fault (or near fault) on the recording:
+    each run replayed on its own, the first run's failure first."""
+    if not specs:
+        return []
+
+    def one(segment: int) -> object:
+        return _replay_run(specs, recording, segment)
+
     failed: dict[int, Outcome] = {}
-    for segment, run in enumerate(recording.runs):
-        # Each observer on its own, dropped once it has failed: most false relations fail
-        # early, and the rest of the run need not be replayed for them.
-        readers: dict[str, list[tuple[int, Observer]]] = {}
-        for i, obs in enumerate(build_all(specs)):
-            if i not in failed:
-                for topic, _ in obs.needs.topics:
-                    readers.setdefault(topic, []).append((i, obs))
-        for message in _stream(recording, segment, frozenset(readers)):
-            for i, obs in readers.get(message.topic, ()):
-                if i in failed:
-                    continue
-                if any(not v.positive for v in obs.feed(message)):
-                    failed[i] = (run.path, message.t, False)
-                elif _near(obs):
-                    failed[i] = (run.path, message.t, True)
+    for found in mapper(one, list(range(len(recording.runs)))):
+        assert isinstance(found, dict)
+        for i, outcome in found.items():
+            failed.setdefault(i, outcome)
     return [failed.get(i) for i in range(len(specs))]
+
+
+def _replay_run(
+    specs: list[ObserverSpec], recording: Recording, segment: int
+) -> dict[int, Outcome]:
+    """Per spec that fails on run ``segment``, when it first does."""
+    failed: dict[int, Outcome] = {}
+    run = recording.runs[segment]
+    # Each observer on its own, dropped once it has failed: most false relations fail
+    # early, and the rest of the run need not be replayed for them.
+    readers: dict[str, list[tuple[int, Observer]]] = {}
+    for i, obs in enumerate(build_all(specs)):
+        for topic, _ in obs.needs.topics:
+            readers.setdefault(topic, []).append((i, obs))
+    for message in _stream(recording, segment, frozenset(readers)):
+        for i, obs in readers.get(message.topic, ()):
+            if i in failed:
+                continue
+            if any(not v.positive for v in obs.feed(message)):
+                failed[i] = (run.path, message.t, False)
+            elif _near(obs):
+                failed[i] = (run.path, message.t, True)
+    return failed
 
 
 def _positions(model: Model) -> dict[str, tuple[str, int]]:
@@ -129,3 +151,52 @@ def prepare(recording: Recording) -> None:
     every = frozenset(t.name for t in recording.topics)
     for segment in range(len(recording.runs)):
         _stream(recording, segment, every)
+
+
+def without_false_alarms(
+    model: Model, recording: Recording, notes: list[str], mapper: Mapper = serial
+) -> Model:
+    """Drop the learned rates and relations whose observers report a fault on the
+    fault-free training runs themselves (:mod:`rac.learn.validate`)."""
+    failed = failures(model, recording, mapper)
+    if not failed:
+        return model
+    topics = list(model.topics)
+    dropped: list[str] = []
+    bad_relations = set()
+    for f in failed:
+        where = f"{f.run} at {f.at:.1f} s"
+        if f.kind == "GObs":
+            t = topics[f.index]
+            why = f"rate {t.rate_hz:g} Hz dropped: its frequency observer read not ok on {where}"
+            topics[f.index] = replace(
+                t,
+                rate_hz=None,
+                rate_tolerance_hz=None,
+                window_s=None,
+                mismatch_threshold=None,
+                comments=(*t.comments, why),
+            )
+            dropped.append(f"{t.name.value} @ {t.rate_hz:g} Hz")
+        else:
+            r = model.related[f.index]
+            bad_relations.add(f.index)
+            dropped.append(f"{r.a.text} ~ {r.b.text}")
+    related = tuple(r for i, r in enumerate(model.related) if i not in bad_relations)
+    trailing = [
+        f"dropped: relate {model.related[f.index].a.text} ~ {model.related[f.index].b.text} "
+        f"(its observer {'came near' if f.near else 'read'} not matched on {f.run} at "
+        f"{f.at:.1f} s)"
+        for f in failed
+        if f.kind == "BiQObs"
+    ]
+    notes.append(
+        "observers that report a fault on the training runs themselves, dropped: "
+        + "; ".join(dropped)
+    )
+    return replace(
+        model,
+        topics=tuple(topics),
+        related=related,
+        trailing_comments=(*model.trailing_comments, *trailing),
+    )

@@ -3,6 +3,7 @@ rosbags into the arrays of :mod:`rac.learn.recording` (what learning and replay 
 
 from __future__ import annotations
 
+import math
 import struct
 import sys
 from collections.abc import Iterator, Sequence
@@ -24,9 +25,11 @@ from rac.errors import Diagnostic, RacError
 from rac.learn.fields import FieldSelector, layout_of, with_angles
 from rac.learn.raw import row_reader
 from rac.learn.recording import WRAPPING, Recording, Run, TopicData, merge_runs
+from rac.learn.stamps import stamp_reader
 from rac.limits import check_yaml_limits
 from rac.load.files import read_text
 from rac.load.kinds import RECORDING, check_kind
+from rac.parallel import run_all
 
 # What a damaged bag raises while its messages are read: rosbags' own errors, the
 # struct/index/assert failures of its parsers meeting corrupt bytes, SQLite's (through apsw)
@@ -217,6 +220,9 @@ def _read(
         for t, lay in layouts.items()
         if not lay.empty
     }
+    # The publisher's header stamp of each message, where its type begins with a header.
+    headers = {t: stamp_reader(fielddefs, m, cdr=cdr) for t, m in types.items()}
+    header_stamps: dict[str, list[float]] = {t: [] for t, r in headers.items() if r is not None}
     stamps: dict[str, list[int]] = {t: [] for t in types}
     rows: dict[str, list[tuple[float, ...]]] = {t: [] for t in extract}
     count = 0
@@ -228,6 +234,10 @@ def _read(
             why = f"message {count} on {conn.topic} is not bytes: the database is damaged"
             raise _fail(path, why)
         stamps[conn.topic].append(stamp)
+        read_stamp = headers.get(conn.topic)
+        if read_stamp is not None:
+            found = read_stamp(raw)
+            header_stamps[conn.topic].append(math.nan if found is None else found)
         get = extract.get(conn.topic)
         if get is not None:
             rows[conn.topic].append(get(raw))
@@ -242,6 +252,7 @@ def _read(
         for i, f in enumerate(lay.fields):
             if f in WRAPPING and f in lay.euler and values.shape[1] > 1:
                 values[i] = np.unwrap(values[i])
+        column = header_stamps.get(name)
         data.append(
             TopicData(
                 name=name,
@@ -251,12 +262,18 @@ def _read(
                 segments=np.zeros(times.size, dtype=np.int64),
                 fields=lay.fields,
                 values=values,
+                stamps=None if column is None else np.asarray(column, dtype=np.float64),
             )
         )
     if not data:
         raise _fail(path, "it holds no messages")
     start = min(float(t.times[0]) for t in data)
     end = max(float(t.times[-1]) for t in data)
+    # The recording's own span, every topic's messages (read or not) included: replay
+    # judges up to its end, and times count from its start.
+    span = _span(reader)
+    if span is not None and span[1] - span[0] <= MAX_SPAN_S:
+        start, end = min(start, span[0]), max(end, span[1])
     if end - start > MAX_SPAN_S:
         raise far_off_stamp(path, end - start)
     ros_version = 2 if reader.is2 else 1
@@ -264,7 +281,29 @@ def _read(
     return Run(path, ros_version, start, end, tuple(data), count, skipped)
 
 
+def _span(reader: AnyReader | _WithTypestore) -> tuple[float, float] | None:
+    """The first and last message time of the whole recording (every topic), seconds."""
+    bag = reader.bag if isinstance(reader, _WithTypestore) else reader
+    try:
+        first, last = int(bag.start_time), int(bag.end_time)
+    except Exception:  # an index without times: the messages read decide
+        return None
+    if last <= first:
+        return None
+    # rosbags gives the end as one past the last message's time (ns)
+    return first * 1e-9, (last - 1) * 1e-9
+
+
 def read_recording(
-    paths: Sequence[str | Path], selector: FieldSelector, topics: frozenset[str] | None = None
+    paths: Sequence[str | Path],
+    selector: FieldSelector,
+    topics: frozenset[str] | None = None,
+    jobs: int = 1,
 ) -> Recording:
-    return merge_runs([read_run(p, selector, topics) for p in paths])
+    """Several recordings as one training set (Algorithm 19), each read on its own, on up
+    to ``jobs`` processes."""
+
+    def one(path: str | Path) -> Run:
+        return read_run(path, selector, topics)
+
+    return merge_runs(run_all(one, list(paths), jobs))

@@ -24,6 +24,13 @@ that turn at a rate close to a limit flip between "increasing" and "constant"
 independently and read as a sustained mismatch; a real divergence (one side clearly rising
 while the other is clearly flat or falling) still counts under the θ rule.
 
+While both sides rest (each slope within its limit, :attr:`~rac.observe.qobs.TrendAt.rests`)
+a check gives no verdict either way: it neither counts a match nor a mismatch.  A robot
+standing still has an IMU whose heading wanders and odometry whose heading does not; that
+is noise on both, not a broken relation.  A side that rests compares as constant.  A
+mismatch in which one side rests and the other moves before its history can tell its noise
+from its motion (:attr:`~rac.observe.qobs.QObs.settled`) is not counted; a match is.
+
 A value beyond its field's plausible magnitude (:mod:`rac.observe.plausible`: a glitch, a
 stranger's message) is never added to a side's sums; every check within the window ω after
 it counts as a mismatch, so that a publisher that keeps sending such values breaks the
@@ -44,10 +51,19 @@ from rac.observe.events import Event, Message, Verdict
 from rac.observe.iobs import field_value, pair_needs
 from rac.observe.params import Params
 from rac.observe.plausible import bound
-from rac.observe.qobs import QObs, TrendAt
+from rac.observe.qobs import QObs, Trend, TrendAt
 from rac.passes.observers import DEFAULT_MISMATCH_THRESHOLD, ObserverSpec
 
 DEFAULT_WS = 1.0
+
+
+def _constant_at_rest(state: TrendAt) -> TrendAt:
+    """A sample whose slope is within its limit compares as constant: the trend Algorithm 4
+    holds over it (the previous one, while its derivatives are outside the limit) is what
+    noise makes of a signal at rest, not a motion."""
+    if state.rests and state.trend != Trend.CONS:
+        return TrendAt(state.t, Trend.CONS, state.slope, state.limit)
+    return state
 
 
 class BiQObs:
@@ -99,10 +115,26 @@ class BiQObs:
             if (pair is None and not glitch) or checks > self._mismatch.cap:
                 self._next += (math.floor((t - self._next) / self._step) + 1) * self._step
                 break
-            matched = pair is not None and (
-                pair[0].admits(pair[1].trend) or pair[1].admits(pair[0].trend)
-            )
-            if matched or not (self._starved or self._next < self._settled):
+            if pair is None:
+                matched = doubt = False  # a refused value in the window: a violation
+            else:
+                a, b = pair
+                if a.rests and b.rests:
+                    # Neither side moves beyond its noise: the relation says nothing (a
+                    # robot standing still neither confirms nor breaks it).
+                    checks += 1
+                    self._next += self._step
+                    continue
+                # A side that rests is constant, whatever trend its sample held.
+                a, b = _constant_at_rest(a), _constant_at_rest(b)
+                matched = a.admits(b.trend) or b.admits(a.trend)
+                # A side that moves, beside one that rests, while its history cannot yet
+                # tell its noise from motion may be moving by noise: such a mismatch is not
+                # counted, as while starved.  Two sides that both move disagree for real.
+                doubt = (not a.rests and not self.side1.settled and b.rests) or (
+                    not b.rests and not self.side2.settled and a.rests
+                )
+            if matched or not (doubt or self._starved or self._next < self._settled):
                 self._latch.report(self._next, self._mismatch.check(matched), out)
             checks += 1
             self._next += self._step

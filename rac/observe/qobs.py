@@ -15,9 +15,18 @@ QObs is not an observer of its own in the model: BiQObs runs two of them.
   since the observer started (the learner's ``np.cumsum``); slopes do not see the offset.
 - β_p = ``slope`` and β_n = −``slope`` when the spec gives a slope.  Otherwise, per sample,
   β_p = max(:data:`SIGNIFICANCE`·se, floor) with the se of the sample's slope, β_n = −β_p;
-  the floor is :data:`FLOOR_FRACTION` of the :data:`FLOOR_QUANTILE` quantile of |β| over a
-  history of |β| taken once per half window (the last :data:`HISTORY`).  No trend is given
-  until the history holds :data:`MIN_HISTORY` entries (10 s at ω = 1 s).
+  the floor is the larger of :data:`FLOOR_FRACTION` of the :data:`FLOOR_QUANTILE` quantile
+  of |β| over a history of |β| taken once per half window (the last :data:`HISTORY`) and
+  the signal's noise band, the valley between its slopes at rest and in motion in that
+  history (:func:`rac.observe.noise.noise_band`, at most a quarter of that quantile).
+  No trend is given until the history holds :data:`MIN_HISTORY` entries (10 s at ω = 1 s).
+- A trend **rests** while |β| is within its limit (:attr:`TrendAt.rests`): a BiQObs gives
+  no verdict while both of its sides rest.  Until its history is :attr:`QObs.settled` (it
+  has shown the signal at rest and moving, or is 20 s old: :func:`rac.observe.noise.settled`)
+  a side cannot tell its noise from slow motion, and a BiQObs counts no mismatch in which it
+  moves while the other side rests (a match still counts).
+- An integrated side's slope error is at least that of the samples it sums
+  (:class:`SlidingMean`): the running sum of a gyro's noise is a random walk.
 
 This deviates from the learner (:mod:`rac.learn.trends`), whose β_p/β_n are the medians of
 the positive/negative slopes of a whole recording.  A running observer has no recording,
@@ -62,6 +71,7 @@ from collections import deque
 from dataclasses import dataclass
 from enum import IntEnum
 
+from rac.observe.noise import noise_band, settled
 from rac.observe.plausible import GENERIC_BOUND, plausible
 
 
@@ -79,6 +89,7 @@ FLOOR_QUANTILE = 0.95  # the typical fast slope: this quantile of |β| over the 
 HISTORY = 2000  # |β| samples kept, one per half window (about 17 minutes at ω = 1 s)
 MIN_HISTORY = 20  # samples before the first trend (10 s at ω = 1 s)
 MARGIN = 2.0  # how far from a limit a slope must lie to be clearly on one side of it
+BAND_EVERY = 20  # the noise band is measured again after this many |β| join the history
 REBASE_EVERY = 1024
 # A sample whose squared distance from the origin exceeds this many times the mean of the
 # rest of its window leaves the sums by an exact recomputation, not a subtraction.
@@ -191,6 +202,28 @@ class SlidingSlope:
         return slope, math.sqrt(ssr / (n - 2) / (den / n))
 
 
+class SlidingMean(SlidingSlope):
+    """Over the same windows as a :class:`SlidingSlope` of a running sum, the slope that sum
+    has from its raw samples' mean, mean·n/span, and its standard error from their scatter,
+    se(mean)·n/span.  A running sum of noise is a random walk, which a regression over its
+    own values reads as a trend its residuals cannot question; the scatter of the summed
+    samples can (an integrated gyro of a robot standing still rises only by its noise)."""
+
+    __slots__ = ()
+
+    def _slope(self) -> tuple[float, float]:
+        n = self._n
+        if n < 3:
+            return 0.0, 0.0
+        span = self._win[-1][0] - self._win[0][0]
+        if not span > 0:
+            return 0.0, 0.0
+        mean = self._sv / n
+        variance = max(self._svv / n - mean * mean, 0.0) * n / (n - 1)
+        scale = n / span
+        return (mean + self._v0) * scale, math.sqrt(variance / n) * scale
+
+
 class _Quantile:
     """A quantile of the last ``size`` numbers pushed (kept sorted; pushes are rare)."""
 
@@ -212,6 +245,10 @@ class _Quantile:
     def value(self) -> float:
         return self._sorted[min(len(self._sorted) - 1, int(self._q * len(self._sorted)))]
 
+    def values(self) -> list[float]:
+        """Every number kept, sorted."""
+        return self._sorted
+
 
 @dataclass(frozen=True, slots=True)
 class TrendAt:
@@ -221,6 +258,11 @@ class TrendAt:
     trend: Trend
     slope: float
     limit: float
+
+    @property
+    def rests(self) -> bool:
+        """Its slope is within its limit: the signal moves no more than its noise."""
+        return abs(self.slope) <= self.limit
 
     def admits(self, trend: Trend) -> bool:
         """Could this trend as well have been ``trend``?  True when it is, or when the slope
@@ -244,6 +286,8 @@ class QObs:
         self.slope = slope
         half = ws / 2
         self._levels = (SlidingSlope(half), SlidingSlope(half), SlidingSlope(half))
+        # An integrated side's noise is judged on the samples it sums (SlidingMean).
+        self._raw = SlidingMean(half) if integral else None
         # First and second derivatives (value, standard error) waiting for the third.
         self._s1: deque[tuple[float, float]] = deque()
         self._s2: deque[float] = deque()
@@ -258,6 +302,10 @@ class QObs:
         self.recent: deque[TrendAt] = deque()  # the trends of the last 2ω, oldest first
         self._scale = _Quantile(HISTORY, FLOOR_QUANTILE)
         self._scale_due = -math.inf  # when the next |β| joins the history
+        self._band = 0.0  # the noise band of the history (noise_band)
+        self._band_due = 0  # history entries until it is measured again
+        # The history tells noise from motion (noise.settled); a given slope needs none.
+        self.settled = slope is not None
 
     def implausible(self, t: float) -> bool:
         """Whether a refused value came within the window ω before ``t``."""
@@ -267,7 +315,7 @@ class QObs:
         """The smallest limit: a fraction of the typical fast slope; None while unknown."""
         if len(self._scale) < MIN_HISTORY:
             return None
-        return FLOOR_FRACTION * self._scale.value()
+        return max(FLOOR_FRACTION * self._scale.value(), self._band)
 
     def limit(self, se: float, floor: float) -> float:
         """β_p for a slope with standard error ``se``: the given slope, else the larger of
@@ -299,6 +347,7 @@ class QObs:
             self.implausible_t = t  # evidence about the publisher, not a sample
             return []
         self._last_t = t
+        raw = self._raw.push(t, v) if self._raw is not None else None
         if self.integral:
             self._sum += v
             if abs(self._sum) > RECENTRE_AT:
@@ -307,10 +356,21 @@ class QObs:
             v = self._sum
         l1, l2, l3 = self._levels
         out = []
-        for c1, s1, e1 in l1.push(t, v):
+        for k, (c1, s1, e1) in enumerate(l1.push(t, v)):
+            if raw is not None:
+                # The same windows close on both: the raw samples' scatter gives the error.
+                e1 = max(e1, raw[k][2])
             if c1 >= self._scale_due:
                 self._scale.push(abs(s1))
                 self._scale_due = c1 + self.ws / 2
+                # Measured again every BAND_EVERY entries (10 s at ω = 1 s), and at each of
+                # the first MIN_HISTORY: a band moves slowly, a valley costs a histogram.
+                self._band_due -= 1
+                if self._band_due <= 0 or len(self._scale) <= MIN_HISTORY:
+                    history = self._scale.values()
+                    self._band = noise_band(history, self._scale.value())
+                    self.settled = self.settled or settled(history)
+                    self._band_due = BAND_EVERY
             self._s1.append((s1, e1))
             for c2, s2, _ in l2.push(c1, s1):
                 self._s2.append(s2)

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from rac.diagnosis.theory import Theory, theory_of
@@ -109,3 +110,36 @@ def truth_for(
                     "replaying without ground truth"
                 )
     return None
+
+
+# A fault may end this long after the recording's last message (``racc synth`` ends a fault
+# that lasts to the end at the recording's duration, a period or so past its last message).
+END_SLACK_S = 1.0
+
+
+def truth_in_span(truth: GroundTruth, span_s: float, where: str) -> GroundTruth:
+    """The ground truth of a replay that judges ``span_s`` seconds of ``where``: a fault
+    that lasts to the end ends with the replay; a fault that starts, or ends, outside the
+    replayed span is an error naming the span (RAC160), never clipped silently."""
+    problems = []
+    faults = []
+    for f in truth.faults:
+        ends_at = f.end if math.isfinite(f.end) else span_s
+        if f.start >= span_s or ends_at > span_s + END_SLACK_S:
+            what = f"fault {f.kind} {f.target} {f.start:g}-{f.end:g} s"
+            edge = "starts" if f.start >= span_s else "ends"
+            problems.append(
+                Diagnostic(
+                    "RAC160",
+                    f"{what} {edge} outside the replayed span of {where}: 0-{span_s:.3f} s "
+                    "(its last message)",
+                    f.span,
+                    hint="give times in seconds from the recording's first message, within "
+                    "the recording; a fault that lasts to the end needs no end",
+                )
+            )
+            continue
+        faults.append(replace(f, end=min(ends_at, span_s)))
+    if problems:
+        raise RacError(problems, truth.source)
+    return replace(truth, duration=span_s, faults=tuple(faults))

@@ -26,22 +26,19 @@ the observer core takes, with times in seconds from the start of the recording.
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from rosbags.highlevel import AnyReader
-from rosbags.interfaces import Connection
-from rosbags.rosbag1 import Reader as Reader1
 from rosbags.typesys import Stores, get_typestore
 
 from rac.errors import Diagnostic, RacError
 from rac.learn.fields import FieldSelector
 from rac.learn.properties import Sample, property_rows
 from rac.learn.recording import Run, message_stream
-from rac.learn.stamps import stamp_reader
 from rac.load.bags import MAX_SPAN_S, far_off_stamp, read_run
 from rac.load.files import read_text
 from rac.observe.dobs import violations_first
@@ -49,7 +46,6 @@ from rac.observe.events import (
     ChannelState,
     DeviceStatus,
     Event,
-    Message,
     NodeSample,
     PropertySample,
 )
@@ -77,7 +73,7 @@ class Needs:
 class RunInputs:
     path: str
     start: float  # the recording's start on its own clock, seconds
-    duration: float  # seconds from the start to the last input
+    duration: float  # seconds from the start to the end of the recording (its last message)
     events: tuple[Event, ...]  # in time order, times from the start
     messages: int  # topic messages among the events
     notes: tuple[str, ...]
@@ -97,7 +93,8 @@ def load_run(path: str, needs: Needs, properties: str | None) -> RunInputs:
     """Every input a model's observers take from one recorded run."""
     run = _read_topics(path, needs)
     notes: list[str] = [*_absent_topics(path, run, needs), *_missing_fields(path, run, needs)]
-    events: list[Event] = stamped(message_stream(run.topics, run.start), header_stamps(path, needs))
+    # Header stamps come with the messages (read from the same bytes in the same pass).
+    events: list[Event] = list(message_stream(run.topics, run.start))
     messages = len(events)
     if needs.diagnostics:
         statuses = list(_diagnostics(path, run.start))
@@ -133,7 +130,9 @@ def load_run(path: str, needs: Needs, properties: str | None) -> RunInputs:
             "(pass --properties)"
         )
     events.sort(key=lambda e: e.t)
-    duration = max((e.t for e in events), default=0.0)
+    # To the end of the recording: its last message of any topic, read or not, so that a
+    # topic that stops near the end is judged (its silence counts up to there).
+    duration = max(max((e.t for e in events), default=0.0), run.end - run.start)
     first = min((e.t for e in events), default=0.0)
     if duration - first > MAX_SPAN_S:  # the topics are bounded already: a /diagnostics stamp
         raise far_off_stamp(path, duration - first)
@@ -145,7 +144,6 @@ def load_run(path: str, needs: Needs, properties: str | None) -> RunInputs:
 
 def _message_count(path: str) -> int:
     """Every message of the recording (its index says; 0 when it cannot be told)."""
-    from rosbags.highlevel import AnyReader
 
     try:
         with AnyReader([Path(path)]) as reader:
@@ -179,66 +177,6 @@ def _missing_fields(path: str, run: Run, needs: Needs) -> Iterator[str]:
                 f"{', '.join(missing)}: the observers of {'it' if len(missing) == 1 else 'them'} "
                 "stay silent"
             )
-
-
-def header_stamps(path: str, needs: Needs) -> dict[str, list[float | None]]:
-    """Topic -> the header stamps of its messages in the bag's order, for the model's topics
-    whose type begins with a header (:mod:`rac.learn.stamps`).  A bag whose stamps cannot be
-    read gives none: the observers then time its messages by when they were recorded."""
-    p = Path(path)
-    store = get_typestore(Stores.ROS2_HUMBLE if p.is_dir() else Stores.ROS1_NOETIC)
-    try:
-        with AnyReader([p], default_typestore=store) as reader:
-            fielddefs = reader.typestore.fielddefs
-            return _stamps(reader.connections, reader.messages, fielddefs, reader.is2, needs)
-    except Exception:  # read_run has vetted the file: an old roslib/Header, say
-        if p.is_dir():
-            return {}
-    try:  # old ROS 1 bags define roslib/Header: Noetic's definitions read them
-        with Reader1(p) as bag:
-            return _stamps(bag.connections, bag.messages, store.fielddefs, False, needs)
-    except Exception:  # stamps are an extra: without them messages keep their receive times
-        return {}
-
-
-def _stamps(
-    connections: Iterable[Connection],
-    messages: Callable[..., Iterator[tuple[Connection, int, bytes]]],
-    fielddefs: Mapping[str, Any],
-    cdr: bool,
-    needs: Needs,
-) -> dict[str, list[float | None]]:
-    readers = {}
-    for conn in connections:
-        if conn.topic in needs.topic_fields:
-            read = stamp_reader(fielddefs, conn.msgtype, cdr=cdr)
-            if read is not None:
-                readers[conn.id] = (conn.topic, read)
-    wanted = [c for c in connections if c.id in readers]
-    out: dict[str, list[float | None]] = {topic: [] for topic, _ in readers.values()}
-    for conn, _, raw in messages(connections=wanted) if wanted else ():
-        topic, read = readers[conn.id]
-        out[topic].append(read(raw))
-    return out
-
-
-def stamped(messages: list[Message], stamps: Mapping[str, list[float | None]]) -> list[Event]:
-    """``messages`` (each topic's in the bag's order) with their header stamps."""
-    if not stamps:
-        return list(messages)
-    counts = Counter(m.topic for m in messages)
-    usable = {t: s for t, s in stamps.items() if len(s) == counts.get(t)}
-    position: dict[str, int] = dict.fromkeys(usable, 0)
-    out: list[Event] = []
-    for m in messages:
-        column = usable.get(m.topic)
-        if column is None:
-            out.append(m)
-            continue
-        i = position[m.topic]
-        position[m.topic] = i + 1
-        out.append(Message(m.t, m.topic, m.values, column[i]))
-    return out
 
 
 def shifted(events: Iterable[Event], by: float) -> list[Event]:
@@ -288,8 +226,6 @@ def _board_states(path: str, start: float) -> Iterable[ChannelState]:
 
 def _status_arrays(path: str, topic: str, start: float) -> list[tuple[float, list[Any]]]:
     """The statuses of each diagnostic_msgs/DiagnosticArray on ``topic``, with its time."""
-    from rosbags.highlevel import AnyReader
-    from rosbags.typesys import Stores, get_typestore
 
     p = Path(path)
     store = get_typestore(Stores.ROS2_HUMBLE if p.is_dir() else Stores.ROS1_NOETIC)

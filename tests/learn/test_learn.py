@@ -13,7 +13,7 @@ from rac.fmt import format_model
 from rac.ir import Model
 from rac.learn import LearnOptions, LearnResult, learn, observer_counts
 from rac.learn.fields import FieldSelector
-from rac.learn.learner import CPU_FLOOR, MEM_MARGIN
+from rac.learn.limits import CPU_FLOOR, MEM_MARGIN
 from rac.learn.recording import Recording
 from rac.load.bags import read_recording
 from rac.load.files import load_model
@@ -170,8 +170,10 @@ def test_learns_from_two_merged_runs(
 
 def test_fewer_relations_for_higher_q(robot: Robot, ros1_recording: Recording) -> None:
     recording = ros1_recording
+    # The candidates are the meaningful pairs, whose trends agree most of the time the robot
+    # moves (0.92 to 1.00 here): only a Q near 1 rejects some of them.
     counts = [
-        observer_counts(_learn(robot, recording, q=q).model)["BiQObs"] for q in (0.5, 0.8, 0.9)
+        observer_counts(_learn(robot, recording, q=q).model)["BiQObs"] for q in (0.5, 0.9, 0.95)
     ]
     assert counts[0] >= counts[1] >= counts[2]
     assert counts[0] > counts[2]
@@ -180,14 +182,14 @@ def test_fewer_relations_for_higher_q(robot: Robot, ros1_recording: Recording) -
 def test_base_relations_not_learned_again_are_named(
     robot: Robot, ros1_recording: Recording
 ) -> None:
-    result = _learn(robot, ros1_recording, q=0.95)
+    result = _learn(robot, ros1_recording, q=0.995)
     learned = _related(result)
     dropped = [
         f"{r.a.text} ~ {r.b.text}"
         for r in robot.model.related
         if frozenset((r.a.text, r.b.text)) not in learned
     ]
-    assert dropped, "Q 0.95 should lose some of the base's relations"
+    assert dropped, "Q 0.995 should lose some of the base's relations"
     note = next(n for n in result.notes if n.startswith("relations of the base model"))
     assert all(d in note for d in dropped)
 
@@ -207,10 +209,14 @@ def test_every_learned_value_has_its_evidence(ros1_result: LearnResult) -> None:
     for topic in model.topics:
         assert any(c.startswith("learned from") for c in topic.comments), topic.name.value
     for rel in model.related:
-        assert rel.comments and rel.comments[0].startswith("trend match ratio")
+        # What it means (its reading), its evidence, its held-out result.
+        reading, evidence, held = rel.comments
+        assert reading.split(":")[0] in ("graph", "semantic"), reading
+        assert evidence.startswith("trend match ratio")
+        assert held.startswith("held out on")
     text = format_model(model)
     assert parse_ram(text, "learned.ram") == model  # the written file reads back the same
-    assert "# learned from" in text and "mean/σ" in text
+    assert "# learned from" in text and "interval/σ" in text
 
 
 def test_limits_from_the_properties_csv(

@@ -13,7 +13,7 @@ from rosbags.rosbag1 import Writer
 from rosbags.typesys import Stores, get_typestore
 
 from rac.cli import main
-from rac.learn.learner import _rounded_rate
+from rac.learn.rates import rounded_rate as _rounded_rate
 from rac.load.files import load_model
 
 ROOT = Path(__file__).resolve().parents[2]
