@@ -93,6 +93,10 @@ class Occurrence(NamedTuple):
     k: int  # how many occurrences came before it
 
 
+# Made once per message: tuple.__new__ skips the Python-level __new__ of a NamedTuple.
+_occurrence = tuple.__new__
+
+
 class StampTrust:
     """Whether a topic's header stamps time it: every stamp present and later than the one
     before, and the stamps' clock running at the rate of the receiver's over ``agree_s``.
@@ -195,10 +199,21 @@ class GObs:
     def feed(self, event: Event) -> list[Verdict]:
         if not isinstance(event, Message) or event.topic != self.topic:
             return []
-        out = self._count_silence(event.t)
-        now = Occurrence(event.t, event.stamp if self.stamps else None, self._k)
+        return self.occur(event.t, event.stamp)
+
+    def occur(self, t: float, stamp: float | None) -> list[Verdict]:
+        """One occurrence of the topic received at ``t`` with header stamp ``stamp`` (None:
+        none): what :meth:`feed` does with a :class:`Message`, without one (a transport
+        that reads many messages at once feeds them so: ObserverBank.feed_messages)."""
+        # Silence counts only from G past the window's end (_count_silence, inlined for
+        # the usual case: a message well within its time, at every message of a topic).
+        if self._silent or (self._left and t - self._end - self._grace >= 0):
+            out = self._count_silence(t)
+        else:
+            out = []
+        now = _occurrence(Occurrence, (t, stamp if self.stamps else None, self._k))
         self._k += 1
-        self._trust.add(now, measure=not self._in_doubt(now.t))
+        self._trust.add(now, not (self._starved or t < self._settled))
         if self._pauses and self._stale and self._hold.positive:
             # The silence ended before its not_ok was due (the hold): a pause in delivery,
             # not a stop.  Its violations go, and the window goes on with the gap, so that

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 from rac.logic import Atom
@@ -75,6 +75,7 @@ class ObserverHost:
         self.source = ""
         self._lock = threading.Lock()
         self._last_t = float("-inf")
+        self.received = 0  # messages fed so far (the host's cost report)
 
     @property
     def atoms(self) -> tuple[Atom, ...]:
@@ -98,7 +99,31 @@ class ObserverHost:
                 late = t - self._last_tick - schedule.period_s
                 if late > schedule.starved_s:
                     self._starve(t, late, "a message came")
+            self.received += 1
             self._feed(Message(t, topic, values, stamp))
+
+    def messages(
+        self,
+        topic: str,
+        count: int,
+        stamps: Sequence[float | None] = (),
+        values: Sequence[Mapping[str, float]] = (),
+    ) -> None:
+        """``count`` messages of ``topic`` received together now (a transport that reads
+        what came on a connection in one pass): as many :meth:`message` calls, for one
+        lock and one routing; ``stamps`` and ``values`` each message's, or empty."""
+        with self._lock:
+            t = self._now()
+            schedule = self.schedule
+            if schedule is not None and not self.starved and self._last_tick is not None:
+                late = t - self._last_tick - schedule.period_s
+                if late > schedule.starved_s:
+                    self._starve(t, late, "a message came")
+            self.received += count
+            try:
+                self._keep(self.bank.feed_messages(t, topic, count, stamps, values))
+            except (ArithmeticError, ValueError) as err:  # one bad batch must not stop the host
+                self.errors.append(f"{count} messages of {topic} at t={self.wall(t):.3f}: {err}")
 
     def tick(self, wall: float, schedule: Schedule) -> None:
         """The sample loop's tick at wall-clock time ``wall``: the epoch, and whether the
@@ -298,6 +323,98 @@ class HostStep:
     rows: tuple[Row, ...] | None  # the observation set to publish now (None: nothing)
 
 
+# The host is one Python process: past this share of one core it cannot keep up with its
+# topics (messages wait in the kernel, then come in clumps, and it starves its own ticks).
+BUSY_CPU_PERCENT = 80.0
+COST_PERIOD_S = 10.0  # the cost is measured over this long
+
+
+@dataclass(frozen=True, slots=True)
+class HostCost:
+    """What the observer host received and what it cost over one period: the whole process
+    (every thread: the transport's receiving, the observers, the sample loop), as a share
+    of one core and per message received."""
+
+    seconds: float
+    messages: int
+    cpu_s: float
+    starved_s: float  # of the period, how long the host was starved
+
+    @property
+    def rate(self) -> float:
+        return self.messages / self.seconds if self.seconds > 0 else 0.0
+
+    @property
+    def cpu_percent(self) -> float:
+        return 100.0 * self.cpu_s / self.seconds if self.seconds > 0 else 0.0
+
+    @property
+    def us_per_message(self) -> float:
+        return 1e6 * self.cpu_s / self.messages if self.messages else 0.0
+
+    @property
+    def keeping_up(self) -> bool:
+        return self.cpu_percent < BUSY_CPU_PERCENT and self.starved_s < 0.5 * self.seconds
+
+    def text(self) -> str:
+        return (
+            f"{self.rate:.0f} messages/s, {self.cpu_percent:.1f} % of a core, "
+            f"{self.us_per_message:.1f} µs a message"
+            + ("" if self.starved_s <= 0 else f", starved {self.starved_s:.1f} s")
+        )
+
+    def row(self, node: str) -> Row:
+        """``NODE: load`` on ``/diagnostics``: level 0 while the host keeps up, 1 when it
+        cannot (its timing verdicts are then held as while starved)."""
+        values = (
+            ("messages_per_s", f"{self.rate:.1f}"),
+            ("cpu_percent", f"{self.cpu_percent:.1f}"),
+            ("us_per_message", f"{self.us_per_message:.2f}"),
+            ("starved_s", f"{self.starved_s:.2f}"),
+        )
+        if self.keeping_up:
+            return Row(f"{node}: load", 0, self.text(), "", values)
+        return Row(f"{node}: load", 1, f"cannot keep up: {self.text()}", "", values)
+
+
+class CostMeter:
+    """Measures :class:`HostCost` every ``period_s`` of the sample loop's ticks."""
+
+    def __init__(
+        self,
+        host: ObserverHost,
+        period_s: float = COST_PERIOD_S,
+        cpu: Callable[[], float] = time.process_time,
+    ) -> None:
+        self.host, self.period_s, self.cpu = host, period_s, cpu
+        self.last: HostCost | None = None
+        self._since: tuple[float, int, float] | None = None  # (time, messages, cpu)
+        self._starved = 0.0
+        self._starved_at: float | None = None
+
+    def tick(self, now: float) -> HostCost | None:
+        """The cost of the period that ended at ``now``, when one did."""
+        host = self.host
+        if host.starved and self._starved_at is None:
+            self._starved_at = now
+        elif not host.starved and self._starved_at is not None:
+            self._starved += now - self._starved_at
+            self._starved_at = None
+        if self._since is None:
+            self._since = (now, host.received, self.cpu())
+            return None
+        start, received, cpu = self._since
+        if now - start < self.period_s:
+            return None
+        if self._starved_at is not None:
+            self._starved += now - self._starved_at
+            self._starved_at = now
+        used = self.cpu()
+        cost = HostCost(now - start, host.received - received, used - cpu, self._starved)
+        self._since, self._starved, self.last = (now, host.received, used), 0.0, cost
+        return cost
+
+
 class HostLoop:
     """One sample period of the observer host node: whether the host is starved, node and
     property samples, the observers' clocks, what changed, and whether to publish (on a
@@ -315,6 +432,8 @@ class HostLoop:
         self.schedule = schedule or Schedule()
         self.placement = PlacementView(host.specs)
         self._last_publish = float("-inf")
+        self.cost = CostMeter(host)
+        self.cost_reported: HostCost | None = None  # the last period that did not keep up
 
     def _placements(self) -> list[str]:
         """How each node whose placement changed is watched now: logged, on its
@@ -341,6 +460,17 @@ class HostLoop:
         epoch = host.epoch
         lines += placed
         lines += [change_line(v, host.owner.get(v.atom, ""), epoch) for v in changes]
+        cost = self.cost.tick(now)
+        if cost is not None:
+            was = self.cost_reported
+            if not cost.keeping_up or was is not None:
+                lines.append(f"t={now:.3f} observer host load: {cost.text()}")
+            if not cost.keeping_up and (was is None or was.keeping_up):
+                lines.append(
+                    f"t={now:.3f} observer host cannot keep up: {cost.text()}; messages "
+                    "wait and arrive in clumps, so its verdicts come late"
+                )
+            self.cost_reported = cost if not cost.keeping_up else None
         warnings = tuple(f"an observer failed on {e}" for e in host.take_errors()[:5])
         rows = None
         if changes or placed or now - self._last_publish >= self.republish_s:

@@ -173,8 +173,13 @@ def run_observer_node(
             bus.log(2 if silence else 0, host_blind_line(now, silence))
         blind = silence
         if now >= next_status:
+            cost = loop.cost.last
             status_pub(
-                [host_status(bus.name, blind), *([trust.row()] if trust is not None else [])]
+                [
+                    host_status(bus.name, blind),
+                    *([cost.row(bus.name)] if cost is not None else []),
+                    *([trust.row()] if trust is not None else []),
+                ]
             )
             next_status = now + STATUS_PERIOD_S
 
