@@ -163,8 +163,11 @@ class LeanReceiver:
             except OSError:  # a socket closed under the selector: take it out and go on
                 self._prune()
                 continue
+            self._apply_pending()  # a connection dropped while the loop waited is not read
+            streams = self._streams
             for key, _ in ready:
-                self._read(key.data)
+                if id(key.data.connection) in streams:
+                    self._read(key.data)
             time.sleep(self.poll_s)
 
     def _prune(self) -> None:
