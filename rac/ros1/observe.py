@@ -146,6 +146,7 @@ def run_observe(
         host.messages(topic, batch.count, batch.stamps, values)
 
     receiver = LeanReceiver(on_batch, describe)
+    host.path_cpu = lambda: receiver.cpu_s
     install(receiver, bank.topic_fields())
     for topic in sorted(bank.topic_fields()):
         # rospy registers the subscription and makes its connections; their messages go

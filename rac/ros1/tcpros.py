@@ -96,6 +96,7 @@ class LeanReceiver:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.messages = 0  # received so far (for the host's cost report)
+        self.cpu_s = 0.0  # the receiving thread's CPU time so far: the per-message path
         self.errors: list[str] = []  # what failed on a delivery, for the log
 
     def add_topic(self, name: str) -> None:
@@ -154,6 +155,7 @@ class LeanReceiver:
 
     def _run(self) -> None:
         while not self._stop.is_set():
+            self.cpu_s = time.thread_time()
             self._apply_pending()
             if not self._streams:
                 time.sleep(self.poll_s)

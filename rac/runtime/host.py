@@ -76,6 +76,9 @@ class ObserverHost:
         self._lock = threading.Lock()
         self._last_t = float("-inf")
         self.received = 0  # messages fed so far (the host's cost report)
+        # The CPU time of the thread that receives and feeds the messages, where a transport
+        # has one (ROS 1's lean receiver): the per-message path, apart from the sampling.
+        self.path_cpu: Callable[[], float] | None = None
 
     @property
     def atoms(self) -> tuple[Atom, ...]:
@@ -339,6 +342,7 @@ class HostCost:
     messages: int
     cpu_s: float
     starved_s: float  # of the period, how long the host was starved
+    path_s: float | None = None  # of cpu_s, the receiving thread's (None: not measured)
 
     @property
     def rate(self) -> float:
@@ -353,25 +357,37 @@ class HostCost:
         return 1e6 * self.cpu_s / self.messages if self.messages else 0.0
 
     @property
+    def us_per_message_path(self) -> float | None:
+        """The receiving thread's CPU per message: client library, observers, bookkeeping."""
+        if self.path_s is None or not self.messages:
+            return None
+        return 1e6 * self.path_s / self.messages
+
+    @property
     def keeping_up(self) -> bool:
         return self.cpu_percent < BUSY_CPU_PERCENT and self.starved_s < 0.5 * self.seconds
 
     def text(self) -> str:
+        path = self.us_per_message_path
         return (
             f"{self.rate:.0f} messages/s, {self.cpu_percent:.1f} % of a core, "
             f"{self.us_per_message:.1f} µs a message"
+            + ("" if path is None else f" ({path:.1f} µs receiving and observing)")
             + ("" if self.starved_s <= 0 else f", starved {self.starved_s:.1f} s")
         )
 
     def row(self, node: str) -> Row:
         """``NODE: load`` on ``/diagnostics``: level 0 while the host keeps up, 1 when it
         cannot (its timing verdicts are then held as while starved)."""
-        values = (
+        values: tuple[tuple[str, str], ...] = (
             ("messages_per_s", f"{self.rate:.1f}"),
             ("cpu_percent", f"{self.cpu_percent:.1f}"),
             ("us_per_message", f"{self.us_per_message:.2f}"),
             ("starved_s", f"{self.starved_s:.2f}"),
         )
+        path = self.us_per_message_path
+        if path is not None:
+            values += (("us_per_message_path", f"{path:.2f}"),)
         if self.keeping_up:
             return Row(f"{node}: load", 0, self.text(), "", values)
         return Row(f"{node}: load", 1, f"cannot keep up: {self.text()}", "", values)
@@ -388,7 +404,8 @@ class CostMeter:
     ) -> None:
         self.host, self.period_s, self.cpu = host, period_s, cpu
         self.last: HostCost | None = None
-        self._since: tuple[float, int, float] | None = None  # (time, messages, cpu)
+        # (time, messages, cpu, the receiving thread's cpu)
+        self._since: tuple[float, int, float, float | None] | None = None
         self._starved = 0.0
         self._starved_at: float | None = None
 
@@ -400,18 +417,20 @@ class CostMeter:
         elif not host.starved and self._starved_at is not None:
             self._starved += now - self._starved_at
             self._starved_at = None
+        path = host.path_cpu() if host.path_cpu is not None else None
         if self._since is None:
-            self._since = (now, host.received, self.cpu())
+            self._since = (now, host.received, self.cpu(), path)
             return None
-        start, received, cpu = self._since
+        start, received, cpu, path_before = self._since
         if now - start < self.period_s:
             return None
         if self._starved_at is not None:
             self._starved += now - self._starved_at
             self._starved_at = now
         used = self.cpu()
-        cost = HostCost(now - start, host.received - received, used - cpu, self._starved)
-        self._since, self._starved, self.last = (now, host.received, used), 0.0, cost
+        on_path = None if path is None or path_before is None else path - path_before
+        cost = HostCost(now - start, host.received - received, used - cpu, self._starved, on_path)
+        self._since, self._starved, self.last = (now, host.received, used, path), 0.0, cost
         return cost
 
 

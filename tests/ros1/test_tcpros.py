@@ -106,7 +106,7 @@ def test_bytes_are_kept_when_the_topic_reads_fields() -> None:
 
 
 def test_a_publisher_that_hangs_up_is_closed_and_left() -> None:
-    r, got, wait = receiver()
+    r, _, wait = receiver()
     publisher, conn = pair()
     r.adopt(conn, b"")
     r.start()
