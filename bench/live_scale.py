@@ -128,7 +128,7 @@ def racc_name(proc: psutil.Process) -> str:
     return cmd[:40]
 
 
-def measure(graph: Graph, relays: int, model: str, seconds: float, statistics_on: bool) -> Figures:
+def measure(graph: Graph, relays: int, model: str, seconds: float) -> Figures:
     figures = Figures(relays, model, os.getloadavg()[0], atoms=graph.atoms)
     launched = time.time()
     robot = graph.start_robot()
@@ -260,9 +260,7 @@ def main() -> None:
                 launch, model = relay_graph.write(Path(tmp), relays, data_dir(), args.statistics)
                 with real_graph(Path(tmp), model, launch) as graph:
                     for _ in range(args.repeats):
-                        results.append(
-                            measure(graph, relays, "hand", args.seconds, args.statistics)
-                        )
+                        results.append(measure(graph, relays, "hand", args.seconds))
                     if args.learn:
                         progress(f"{relays} relays: racc record {args.learn} s, racc learn")
                         learned = learn_model(graph, args.learn, progress)

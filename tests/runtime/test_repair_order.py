@@ -6,8 +6,6 @@ was restarted beside the crashed relay, and the next relay down after it."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from rac.diagnosis import Theory
