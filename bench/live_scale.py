@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import signal
 import statistics
 import sys
@@ -61,6 +62,7 @@ class Usage:
     cpu: float
     rss: float
     pss: float
+    uss: float
     processes: int
 
 
@@ -106,15 +108,16 @@ def cpu_seconds(procs: list[psutil.Process]) -> dict[int, float]:
 def usage(procs: list[psutil.Process], before: dict[int, float], seconds: float) -> Usage:
     after = cpu_seconds(procs)
     cpu = sum(after[p] - before[p] for p in after if p in before) / seconds * 100
-    rss = pss = 0.0
+    rss = pss = uss = 0.0
     for p in procs:
         try:
             info = p.memory_full_info()
             rss += info.rss
             pss += info.pss
+            uss += info.uss
         except psutil.Error:
             pass
-    return Usage(cpu, rss / 2**20, pss / 2**20, len(after))
+    return Usage(cpu, rss / 2**20, pss / 2**20, uss / 2**20, len(after))
 
 
 def racc_name(proc: psutil.Process) -> str:
@@ -179,13 +182,14 @@ def crash(graph: Graph, relays: int, figures: Figures) -> None:
     figures.detected = None if named is None else named - at
     figures.repaired = None if done is None else done - at
     first = [msg for t, name, _, _, msg in graph.watch.since(at) if name == "plan"]
-    figures.first_plan = first[0].split(":")[1].strip(" {}") if first else "(none)"
+    found = re.search(r"repairing (\S+) with", first[0]) if first else None
+    figures.first_plan = found.group(1) if found else "(none)"
 
 
 def show(usage: Usage | None) -> str:
     if usage is None:
         return "-"
-    return f"{usage.cpu:5.1f} % {usage.rss:6.0f} / {usage.pss:5.0f} MiB"
+    return f"{usage.cpu:5.1f} % {usage.rss:5.0f}/{usage.pss:4.0f}/{usage.uss:4.0f} MiB"
 
 
 def fmt(value: float | None) -> str:
@@ -195,17 +199,17 @@ def fmt(value: float | None) -> str:
 def report(all_figures: list[Figures], argv: list[str]) -> None:
     print(
         "\nCPU in % of one core over the healthy period (psutil, each process's own counters);"
-        " memory RSS / PSS summed; latencies in s from the kill"
+        " memory RSS/PSS/USS summed; latencies in s from the kill"
     )
     print(
-        f"{'relays':>6} {'model':<8} {'atoms':>5} {'settled':>7} {'robot cpu, rss/pss':>24} "
-        f"{'racc cpu, rss/pss':>24} {'plans':>5} {'episodes':>8} {'flips':>5} "
+        f"{'relays':>6} {'model':<8} {'atoms':>5} {'settled':>7} {'robot cpu, rss/pss/uss':>26} "
+        f"{'racc cpu, rss/pss/uss':>26} {'plans':>5} {'episodes':>8} {'flips':>5} "
         f"{'named':>6} {'repaired':>8} {'first plan':<14} load"
     )
     for f in all_figures:
         print(
-            f"{f.relays:>6} {f.model:<8} {f.atoms:>5} {fmt(f.settled):>7} {show(f.robot):>24} "
-            f"{show(f.racc):>24} {f.plans:>5} {f.episodes:>8} {f.flipped:>5} "
+            f"{f.relays:>6} {f.model:<8} {f.atoms:>5} {fmt(f.settled):>7} {show(f.robot):>26} "
+            f"{show(f.racc):>26} {f.plans:>5} {f.episodes:>8} {f.flipped:>5} "
             f"{fmt(f.detected):>6} {fmt(f.repaired):>8} {f.first_plan:<14} "
             f"{f.load_before:.1f}-{f.load_after:.1f}"
         )

@@ -61,6 +61,7 @@ class ObserverHost:
         self.owner: dict[Atom, str] = {a: s.name for s in self.specs for a in s.atoms}
         self.current: dict[Atom, Verdict] = {}
         self.changes: list[Verdict] = []  # since the last ``take_changes``
+        self.dirty: set[Atom] = set()  # atoms whose row changed since ``take_dirty``
         self.errors: list[str] = []  # observers that failed on an event, for the log
         self.notes: list[str] = []  # starvation began or ended, for the log
         self.starved = False
@@ -241,6 +242,7 @@ class ObserverHost:
             self.current[v.atom] = v
             self.withdrawn.pop(v.atom, None)
             self.changes.append(v)
+            self.dirty.add(v.atom)
 
     def withdraw(self, atoms: Iterable[Atom]) -> list[Atom]:
         """Make atoms unknown (their last verdict no longer holds); the ones that had one."""
@@ -250,12 +252,14 @@ class ObserverHost:
             for atom in atoms:
                 if self.current.pop(atom, None) is not None or atom not in self.withdrawn:
                     self.withdrawn[atom] = t
+                    self.dirty.add(atom)
                     out.append(atom)
         return out
 
     def annotate(self, atom: Atom, values: tuple[tuple[str, str], ...]) -> None:
         with self._lock:
             self.extra[atom] = values
+            self.dirty.add(atom)
 
     def take_changes(self) -> list[Verdict]:
         with self._lock:
@@ -272,13 +276,25 @@ class ObserverHost:
             out, self.notes = self.notes, []
             return out
 
-    def rows(self) -> tuple[Row, ...]:
-        """One status per current literal, sorted by atom."""
+    def take_dirty(self) -> set[Atom]:
+        """The atoms whose row changed since the last call (a verdict, a withdrawal, the
+        values of its row)."""
         with self._lock:
-            verdicts = sorted(self.current.values(), key=lambda v: v.atom)
+            out, self.dirty = self.dirty, set()
+            return out
+
+    def rows(self, only: set[Atom] | None = None) -> tuple[Row, ...]:
+        """One status per current literal, sorted by atom; ``only``: of those atoms alone."""
+        with self._lock:
+            current = (
+                self.current
+                if only is None
+                else {a: self.current[a] for a in only if a in self.current}
+            )
+            verdicts = sorted(current.values(), key=lambda v: v.atom)
             epoch = self.epoch
             extra = dict(self.extra)
-            gone = sorted(self.withdrawn.items())
+            gone = sorted((a, t) for a, t in self.withdrawn.items() if only is None or a in only)
         keyed = [
             (
                 v.atom,
@@ -491,10 +507,17 @@ class HostLoop:
                 )
             self.cost_reported = cost if not cost.keeping_up else None
         warnings = tuple(f"an observer failed on {e}" for e in host.take_errors()[:5])
+        # The rows that changed as soon as they do; every row every ``republish_s``, for
+        # late subscribers and as the host's heartbeat.  A receiver merges what it gets
+        # (docs/runtime.md, /observations): a model of 10,000 observers does not send
+        # 10,000 rows ten times a second.
         rows = None
-        if changes or placed or now - self._last_publish >= self.republish_s:
+        dirty = host.take_dirty()
+        if now - self._last_publish >= self.republish_s:
             rows = host.rows()
             self._last_publish = now
+        elif dirty:
+            rows = host.rows(dirty)
         return HostStep(tuple(lines), warnings, rows)
 
 
