@@ -228,13 +228,12 @@ def run_engine_node(
     summary = bus.rows_publisher(DIAGNOSTICS_TOPIC, 10)
     trust = bus.trust
     gate = trust.gate(OBSERVATIONS, hosts, latched=True) if trust is not None else None
-    bus.on_rows(
-        OBSERVATIONS,
-        lambda rows: engine.observation_rows(rows, time.time()),
-        50,
-        latched=True,
-        gate=gate,
-    )
+
+    def on_observations(rows: list[Row]) -> None:
+        sent = trust.sent.get(OBSERVATIONS) if trust is not None else None
+        engine.observation_rows(rows, time.time(), sent)
+
+    bus.on_rows(OBSERVATIONS, on_observations, 50, latched=True, gate=gate)
 
     def on_reload(target: str, sender: str) -> None:
         why = engine.request_reload(target)
