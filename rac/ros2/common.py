@@ -74,26 +74,8 @@ def require_rclpy() -> Any:
     return rclpy
 
 
-def _executor(lean: bool) -> Any:
-    """rclpy's executor; ``lean``: the C++ events executor where this rclpy has it (Jazzy's
-    ``rclpy.experimental``), whose loop costs a message a third of the Python executor's
-    (bench/ros2_receive.py: 35-47 µs against 99-118 µs), else the single-threaded one."""
-    if lean:
-        try:
-            from rclpy.experimental import EventsExecutor
-        except ImportError:  # Humble's rclpy has none
-            pass
-        else:
-            return EventsExecutor()
-    from rclpy.executors import SingleThreadedExecutor
-
-    return SingleThreadedExecutor()
-
-
 class Session:
-    """One rclpy node spun by an executor thread; the caller's loop runs while ``ok``.
-    ``lean``: spun by the events executor (the observer host, which receives the robot's
-    topics)."""
+    """One rclpy node spun by an executor thread; the caller's loop runs while ``ok``."""
 
     def __init__(
         self,
@@ -102,16 +84,16 @@ class Session:
         key: bytes | None = None,
         role: str = "",
         seal_as: str = "",
-        lean: bool = False,
     ) -> None:
         ros_args = ROS_ARGS if ros_args is None else ros_args
         rclpy = require_rclpy()
+        from rclpy.executors import SingleThreadedExecutor
 
         self.rclpy = rclpy
         rclpy.init(args=["racc", *ros_args])  # SIGINT and SIGTERM end the context
         self.context = rclpy.get_default_context()
         self.node = rclpy.create_node(name)
-        self.executor = _executor(lean)
+        self.executor = SingleThreadedExecutor()
         self.executor.add_node(self.node)
         sender = seal_as or self.name
         self._trust = Trust(key, role, sender, self.log) if key is not None else None

@@ -53,7 +53,7 @@ def run_observe(
     key: bytes | None = None,
     sources: dict[str, TopicSource] | None = None,
 ) -> None:
-    session = Session(name, key=key, role=OBSERVER, lean=True)
+    session = Session(name, key=key, role=OBSERVER)
     from diagnostic_msgs.msg import DiagnosticArray
 
     node = session.node
