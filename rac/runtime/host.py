@@ -97,14 +97,20 @@ class ObserverHost:
     def message(self, topic: str, values: Mapping[str, float], stamp: float | None = None) -> None:
         """A message received now; ``stamp`` its header stamp (None: none)."""
         with self._lock:
-            t = self._now()
-            schedule = self.schedule
-            if schedule is not None and not self.starved and self._last_tick is not None:
-                late = t - self._last_tick - schedule.period_s
-                if late > schedule.starved_s:
-                    self._starve(t, late, "a message came")
-            self.received += 1
+            t = self._arrival(1)
             self._feed(Message(t, topic, values, stamp))
+
+    def _arrival(self, count: int) -> float:
+        """Now, for ``count`` messages that came: a message that comes while the sample
+        tick is overdue starts a starvation (the module's docstring).  Holds the lock."""
+        t = self._now()
+        schedule = self.schedule
+        if schedule is not None and not self.starved and self._last_tick is not None:
+            late = t - self._last_tick - schedule.period_s
+            if late > schedule.starved_s:
+                self._starve(t, late, "a message came")
+        self.received += count
+        return t
 
     def messages(
         self,
@@ -117,13 +123,7 @@ class ObserverHost:
         what came on a connection in one pass): as many :meth:`message` calls, for one
         lock and one routing; ``stamps`` and ``values`` each message's, or empty."""
         with self._lock:
-            t = self._now()
-            schedule = self.schedule
-            if schedule is not None and not self.starved and self._last_tick is not None:
-                late = t - self._last_tick - schedule.period_s
-                if late > schedule.starved_s:
-                    self._starve(t, late, "a message came")
-            self.received += count
+            t = self._arrival(count)
             try:
                 self._keep(self.bank.feed_messages(t, topic, count, stamps, values))
             except (ArithmeticError, ValueError) as err:  # one bad batch must not stop the host
