@@ -132,6 +132,7 @@ class ObserverBank:
         count: int,
         stamps: Sequence[float | None] = (),
         values: Sequence[Mapping[str, float]] = (),
+        seqs: Sequence[int | None] = (),
     ) -> list[Verdict]:
         """``count`` messages of ``topic`` received at ``t`` in one batch, in order: each
         observer gives the verdicts it would if each were fed as a :class:`Message`
@@ -146,13 +147,17 @@ class ObserverBank:
         for obs in targets:
             if isinstance(obs, GObs):
                 for k in range(count):
-                    changed = obs.occur(t, stamps[k] if stamps else None)
+                    changed = obs.occur(t, stamps[k] if stamps else None, seqs[k] if seqs else None)
                     if changed:
                         out.extend(changed)
         others = [o for o in targets if not isinstance(o, GObs)]
         for k in range(count if others else 0):
             message = Message(
-                t, topic, values[k] if values else _NO_VALUES, stamps[k] if stamps else None
+                t,
+                topic,
+                values[k] if values else _NO_VALUES,
+                stamps[k] if stamps else None,
+                seqs[k] if seqs else None,
             )
             for obs in others:
                 changed = obs.feed(message)

@@ -143,7 +143,7 @@ def run_observe(
         if batch.bodies:
             reader = readers.reader(topic, lambda: header_type(connection.header))
             values = [reader.values(body) for body in batch.bodies]
-        host.messages(topic, batch.count, batch.stamps, values)
+        host.messages(topic, batch.count, batch.stamps, values, batch.seqs)
 
     receiver = LeanReceiver(on_batch, describe)
     host.path_cpu = lambda: receiver.cpu_s

@@ -14,7 +14,7 @@ gives the publisher's ``callerid`` and type), and then hands the connected socke
 :class:`LeanReceiver`: one thread, one ``selectors`` loop over every socket, reading what
 the kernel holds in one ``recv`` and splitting it on the length prefixes.  A message is
 never deserialized here: per message the receiver reads its length, and, as the topic asks,
-the header stamp (``uint32 seq``, then ``secs``, ``nsecs``: bytes 4-12 of the message) or
+the header's ``uint32 seq`` and stamp (``secs``, ``nsecs``: bytes 0-12 of the message) or
 a copy of its bytes.  The loop polls every :data:`POLL_S` (5 ms), so that each pass takes
 what came on every connection meanwhile: the receive time of a message is known to within
 that, which is far below a frequency observer's tolerance (a 2 s window).
@@ -33,13 +33,13 @@ import struct
 import threading
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 POLL_S = 0.05  # the loop sleeps this long between passes (messages then come in batches)
 CHUNK = 1 << 18  # bytes read per recv at most
 _LENGTH = struct.Struct("<I")
-_STAMP = struct.Struct("<II")
+_HEADER = struct.Struct("<III")  # seq, stamp secs, stamp nsecs
 
 
 @dataclass(frozen=True, slots=True)
@@ -53,6 +53,7 @@ class Batch:
     count: int
     stamps: list[float | None]
     bodies: list[bytes]
+    seqs: list[int | None] = field(default_factory=list)  # header.seq, with the stamps
 
 
 @dataclass(slots=True)
@@ -209,9 +210,10 @@ class LeanReceiver:
         topic = stream.topic
         stamped, keep = topic.stamped, topic.keep_bytes
         stamps: list[float | None] = []
+        seqs: list[int | None] = []
         bodies: list[bytes] = []
         pos = count = 0
-        unpack_length, unpack_stamp = _LENGTH.unpack_from, _STAMP.unpack_from
+        unpack_length, unpack_header = _LENGTH.unpack_from, _HEADER.unpack_from
         while size - pos >= 4:
             (length,) = unpack_length(data, pos)
             end = pos + 4 + length
@@ -219,10 +221,12 @@ class LeanReceiver:
                 break
             if stamped:
                 if length >= 12:
-                    secs, nsecs = unpack_stamp(data, pos + 8)
+                    seq, secs, nsecs = unpack_header(data, pos + 4)
                     stamps.append(secs + nsecs * 1e-9 if secs or nsecs else None)
+                    seqs.append(seq)
                 else:
                     stamps.append(None)
+                    seqs.append(None)
             if keep:
                 bodies.append(bytes(data[pos + 4 : end]))
             count += 1
@@ -235,7 +239,7 @@ class LeanReceiver:
         connection.stat_num_msg += count
         connection.stat_bytes += pos
         try:
-            self.deliver(Batch(topic.name, connection, count, stamps, bodies))
+            self.deliver(Batch(topic.name, connection, count, stamps, bodies, seqs))
         except Exception as err:  # one delivery that fails must not stop every topic
             if len(self.errors) < 100:
                 self.errors.append(f"{topic.name}: {type(err).__name__}: {err}")

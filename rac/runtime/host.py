@@ -118,14 +118,16 @@ class ObserverHost:
         count: int,
         stamps: Sequence[float | None] = (),
         values: Sequence[Mapping[str, float]] = (),
+        seqs: Sequence[int | None] = (),
     ) -> None:
         """``count`` messages of ``topic`` received together now (a transport that reads
         what came on a connection in one pass): as many :meth:`message` calls, for one
-        lock and one routing; ``stamps`` and ``values`` each message's, or empty."""
+        lock and one routing; ``stamps``, ``values`` and ``seqs`` each message's, or
+        empty."""
         with self._lock:
             t = self._arrival(count)
             try:
-                self._keep(self.bank.feed_messages(t, topic, count, stamps, values))
+                self._keep(self.bank.feed_messages(t, topic, count, stamps, values, seqs))
             except (ArithmeticError, ValueError) as err:  # one bad batch must not stop the host
                 self.errors.append(f"{count} messages of {topic} at t={self.wall(t):.3f}: {err}")
 

@@ -85,6 +85,7 @@ def test_messages_are_split_on_their_lengths_whatever_the_reads_cut() -> None:
         r.stop()
     stamps = [s for b in got for s in b.stamps]
     assert stamps == [100.5, None, 101.0]  # a zero stamp is none
+    assert [q for b in got for q in b.seqs] == [1, 2, 3]
     assert all(b.bodies == [] for b in got)  # only stamps asked for
     assert conn.stat_num_msg == 3 and r.messages == 3
     assert all(b.connection is conn and b.topic == "/imu" for b in got)
