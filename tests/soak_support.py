@@ -47,6 +47,7 @@ class Watch:
     """The runtime's topics, read from a monitor process's JSON lines."""
 
     observations: list[tuple[float, list[tuple[str, int]]]] = field(default_factory=list)
+    seen: dict[str, tuple[str, int]] = field(default_factory=dict)  # atom -> (literal, level)
     diagnosis: list[tuple[float, list[str]]] = field(default_factory=list)
     repair_log: list[LogRow] = field(default_factory=list)
     nodes: set[str] = field(default_factory=set)  # the graph's node names, once a second
@@ -70,7 +71,10 @@ class Watch:
                 if kind == "ready":
                     self.ready.set()
                 elif kind == "observations":
-                    self.observations.append((t, [(m, lv) for m, lv in line["rows"]]))
+                    # An array holds the rows that changed, or all of them: merged, so
+                    # that each entry is the whole observation set as it stood then.
+                    self.seen.update({name: (m, lv) for name, m, lv in line["rows"]})
+                    self.observations.append((t, list(self.seen.values())))
                 elif kind == "diagnosis":
                     self.diagnosis.append((t, list(line["rows"])))
                 elif kind == "nodes":
@@ -293,7 +297,7 @@ def _level(status: Any) -> int:
 
 def _callbacks() -> dict[str, Callable[[Any], None]]:
     def obs(a: Any) -> None:
-        _emit("observations", [(s.message, _level(s)) for s in a.status])
+        _emit("observations", [(s.name, s.message, _level(s)) for s in a.status])
 
     def diag(a: Any) -> None:
         _emit("diagnosis", [s.message for s in a.status])

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping, Sequence
+from types import MappingProxyType
 from typing import TypeVar
 
 from rac.logic import Atom
@@ -18,9 +19,11 @@ from rac.observe.events import (
     PropertySample,
     Verdict,
 )
+from rac.observe.gobs import GObs
 from rac.passes.observers import DIAGNOSTICS_TOPIC, ObserverSpec
 
 K = TypeVar("K")
+_NO_VALUES: Mapping[str, float] = MappingProxyType({})
 
 
 class ObserverBank:
@@ -120,6 +123,46 @@ class ObserverBank:
         for i in targets:
             if i not in suspended:
                 out.extend(_ordered(self.observers[i].feed(event)))
+        return out
+
+    def feed_messages(
+        self,
+        t: float,
+        topic: str,
+        count: int,
+        stamps: Sequence[float | None] = (),
+        values: Sequence[Mapping[str, float]] = (),
+        seqs: Sequence[int | None] = (),
+    ) -> list[Verdict]:
+        """``count`` messages of ``topic`` received at ``t`` in one batch, in order: each
+        observer gives the verdicts it would if each were fed as a :class:`Message`
+        (``stamps`` and ``values`` give each one's stamp and fields, or are empty: none),
+        routed once for the batch; a frequency observer takes them without a Message."""
+        out: list[Verdict] = []
+        if not math.isfinite(t) or count <= 0:
+            return out
+        suspended = self._suspended
+        targets = [self.observers[i] for i in self._topics.get(topic, ()) if i not in suspended]
+        # A frequency observer takes the occurrences as they are; the others Messages.
+        for obs in targets:
+            if isinstance(obs, GObs):
+                for k in range(count):
+                    changed = obs.occur(t, stamps[k] if stamps else None, seqs[k] if seqs else None)
+                    if changed:
+                        out.extend(changed)
+        others = [o for o in targets if not isinstance(o, GObs)]
+        for k in range(count if others else 0):
+            message = Message(
+                t,
+                topic,
+                values[k] if values else _NO_VALUES,
+                stamps[k] if stamps else None,
+                seqs[k] if seqs else None,
+            )
+            for obs in others:
+                changed = obs.feed(message)
+                if changed:
+                    out.extend(_ordered(changed))
         return out
 
     def advance(self, t: float) -> list[Verdict]:

@@ -32,6 +32,10 @@ class ObservationSet:
             atom = Atom(atom.predicate.removeprefix(NEG_PREFIX), atom.args)
         return self._polarity.pop(atom, None) is not None
 
+    def polarity(self, atom: Atom) -> bool | None:
+        """Whether Θ holds ``atom`` (True), its negation (False), or neither (None)."""
+        return self._polarity.get(atom)
+
     def literals(self) -> tuple[Literal, ...]:
         found = (Literal(atom, positive) for atom, positive in self._polarity.items())
         return tuple(sorted(found, key=str))

@@ -26,12 +26,15 @@ class Message:
     when its type begins with a ``std_msgs/Header`` and the stamp is not zero (None
     otherwise): the publisher's own time, on the publisher's clock.  Only differences of
     stamps mean anything to an observer (a bag played back keeps stamps years old).
+    ``seq`` is its ``header.seq`` (ROS 1; None otherwise): where the publisher counts its
+    messages, how many it sent between two that arrived.
     """
 
     t: float
     topic: str
     values: Mapping[str, float]
     stamp: float | None = None
+    seq: int | None = None
 
 
 @dataclass(frozen=True, slots=True)

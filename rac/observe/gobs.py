@@ -91,6 +91,24 @@ class Occurrence(NamedTuple):
     t: float  # receive time
     stamp: float | None  # the publisher's header stamp
     k: int  # how many occurrences came before it
+    seq: int | None = None  # the header's sequence number (ROS 1), where it counts
+
+
+# Made once per message: tuple.__new__ skips the Python-level __new__ of a NamedTuple.
+_occurrence = tuple.__new__
+
+
+def _sent(first: Occurrence, closing: Occurrence, received: int) -> int:
+    """How many intervals the publisher's header says it sent between ``first`` and
+    ``closing``, of which ``received`` arrived: its sequence numbers' difference, while
+    they count every message (ROS 1's ``header.seq``) and at least half arrived; else
+    ``received``.  A message lost on the way (a relay's queue overflowing under load) is
+    then no slower publisher; a stop still is (silence is timed on arrivals), and so is a
+    stream that lost more than half."""
+    if first.seq is None or closing.seq is None:
+        return received
+    sent = closing.seq - first.seq
+    return sent if received <= sent <= 2 * received else received
 
 
 class StampTrust:
@@ -195,10 +213,25 @@ class GObs:
     def feed(self, event: Event) -> list[Verdict]:
         if not isinstance(event, Message) or event.topic != self.topic:
             return []
-        out = self._count_silence(event.t)
-        now = Occurrence(event.t, event.stamp if self.stamps else None, self._k)
+        return self.occur(event.t, event.stamp, event.seq)
+
+    def occur(self, t: float, stamp: float | None, seq: int | None = None) -> list[Verdict]:
+        """One occurrence of the topic received at ``t`` with header stamp ``stamp`` and
+        sequence number ``seq`` (None: none): what :meth:`feed` does with a
+        :class:`Message`, without one (a transport that reads many messages at once feeds
+        them so: ObserverBank.feed_messages)."""
+        # Silence counts only from G past the window's end (_count_silence, inlined for
+        # the usual case: a message well within its time, at every message of a topic).
+        if self._silent or (self._left and t - self._end - self._grace >= 0):
+            out = self._count_silence(t)
+        else:
+            out = []
+        now = _occurrence(
+            Occurrence,
+            (t, stamp if self.stamps else None, self._k, seq if self.stamps else None),
+        )
         self._k += 1
-        self._trust.add(now, measure=not self._in_doubt(now.t))
+        self._trust.add(now, not (self._starved or t < self._settled))
         if self._pauses and self._stale and self._hold.positive:
             # The silence ended before its not_ok was due (the hold): a pause in delivery,
             # not a stop.  Its violations go, and the window goes on with the gap, so that
@@ -278,7 +311,7 @@ class GObs:
         if stamped is not None:
             mu, slack = stamped, STAMP_RESOLUTION_S
         else:
-            mu, slack = (closing.t - first.t) / n, RESOLUTION_S
+            mu, slack = (closing.t - first.t) / _sent(first, closing, n), RESOLUTION_S
         good = abs(mu - self.delta) <= self.dev + slack
         if good or not self._in_doubt(closing.t):
             self._mismatch.check(good)
@@ -305,7 +338,7 @@ class GObs:
         # window time this window by arrival instead.
         if abs(span - (closing.t - first.t)) > max(self.window, 1.0):
             return None
-        return span / n
+        return span / _sent(first, closing, n)
 
     def _slide(self, closing: Occurrence) -> None:
         """O_mid moves on, one occurrence at a time, until ``closing`` falls in the window

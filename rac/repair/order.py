@@ -11,12 +11,14 @@ from __future__ import annotations
 
 import heapq
 from collections.abc import Sequence
-
-import networkx as nx
+from typing import TYPE_CHECKING
 
 from rac.ir import Model
 from rac.logic import mangle
 from rac.repair.system import RepairSystem
+
+if TYPE_CHECKING:
+    import networkx as nx
 
 Step = tuple[str, ...]
 _STARTS = ("start_node", "power_up")
@@ -25,6 +27,10 @@ _STARTS = ("start_node", "power_up")
 def flow_ranks(model: Model) -> dict[str, int]:
     """Each node (mangled) -> its depth in the data flow: publishers before subscribers;
     the nodes of a feedback loop share one depth."""
+    # networkx is heavy (8 MiB, 0.3 s): loaded when a plan is ordered, not by every racc
+    # process that imports the repair package (the observer host and the engine do).
+    import networkx as nx
+
     graph: nx.DiGraph = nx.DiGraph()
     graph.add_nodes_from(mangle(n.name.value) for n in model.nodes)
     publishers: dict[str, list[str]] = {}

@@ -419,5 +419,10 @@ def raw_class(ros_type: str, md5sum: str, definition: str) -> type:
 
 def connection_type(msg: Any) -> tuple[str, str]:
     """(type, message definition) from an AnyMsg's connection header."""
-    header = getattr(msg, "_connection_header", None) or {}
+    return header_type(getattr(msg, "_connection_header", None))
+
+
+def header_type(header: Any) -> tuple[str, str]:
+    """(type, message definition) from a connection header."""
+    header = header if isinstance(header, dict) else {}
     return str(header.get("type", "")), str(header.get("message_definition", ""))

@@ -18,12 +18,13 @@ from __future__ import annotations
 
 import contextlib
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec, TopicSource
 from rac.ros1.agent import start_agent
-from rac.ros1.common import Ros1Bus, connection_type, node_liveness, node_uri
+from rac.ros1.common import Ros1Bus, header_type, node_liveness, node_uri
+from rac.ros1.tcpros import Batch, LeanReceiver, install
 from rac.runtime.guardian import DEFAULT_GONE_S
 from rac.runtime.host import ObserverHost
 from rac.runtime.nodes import run_observer_node
@@ -131,14 +132,28 @@ def run_observe(
     connections = Connections(host.check, refuse, node_uri)
     impls: dict[str, Any] = {}
 
-    def on_message(msg: Any, topic: str) -> None:
-        if not connections.admits(topic, getattr(msg, "_connection_header", None), impls[topic]):
-            return
-        values, stamp = readers.read(topic, msg._buff, lambda: connection_type(msg))
-        host.message(topic, values, stamp)
+    def describe(topic: str, connection: Any) -> tuple[bool, bool]:
+        """(stamped, keep the bytes) of a topic, from its first connection's header."""
+        reader = readers.reader(topic, lambda: header_type(connection.header))
+        return reader.stamped, reader.reads_fields
 
+    def on_batch(batch: Batch) -> None:
+        topic, connection = batch.topic, batch.connection
+        if not connections.admits(topic, connection.header, impls[topic]):
+            return
+        values: list[Mapping[str, float]] = []
+        if batch.bodies:
+            reader = readers.reader(topic, lambda: header_type(connection.header))
+            values = [reader.values(body) for body in batch.bodies]
+        host.messages(topic, batch.count, batch.stamps, values, batch.seqs)
+
+    receiver = LeanReceiver(on_batch, describe)
+    host.path_cpu = lambda: receiver.cpu_s
+    install(receiver, bank.topic_fields())
     for topic in sorted(bank.topic_fields()):
-        sub = rospy.Subscriber(topic, rospy.AnyMsg, on_message, callback_args=topic, queue_size=50)
+        # rospy registers the subscription and makes its connections; their messages go
+        # to the receiver, never to this callback.
+        sub = rospy.Subscriber(topic, rospy.AnyMsg, _unused, queue_size=1)
         impls[topic] = sub.impl
     if bank.devices:
 
@@ -168,3 +183,7 @@ def run_observe(
         agent=agent,
         machine=machine,
     )
+
+
+def _unused(msg: Any) -> None:
+    """The lean subscriptions' rospy callback: never called (rac.ros1.tcpros)."""

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import threading
+import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
 
@@ -34,6 +35,9 @@ from rac.runtime.status import (
 )
 
 MIN_GAP_S = 0.2  # between diagnoses triggered by changed observations
+# Observations read this long after they were sent: the engine has fallen behind (its queue
+# of arrays grows); it says so rather than diagnose the past in silence.
+BEHIND_S = 1.0
 # /diagnosis is published at least this often, whatever the rate: it is the engine's
 # heartbeat, by which the repairer and the observer hosts know the diagnosis is live.
 HEARTBEAT_S = 1.0
@@ -159,9 +163,24 @@ class EngineLoop:
         self.hosts = HostWatch(host_lost_s)
         self._lock = threading.Lock()
         self._last = float("-inf")
+        self._lag = 0.0  # the oldest observations read since the last tick (s after sent)
+        self._least: dict[str, float] = {}  # host -> the least delay its arrays have shown
+        self.behind: float | None = None  # since when the engine has been behind
+        self.diagnosis_s = 0.0  # how long the last diagnosis took
 
-    def observation_rows(self, rows: Iterable[Row], t: float) -> None:
+    def observation_rows(
+        self, rows: Iterable[Row], t: float, sent: tuple[str, float] | None = None
+    ) -> None:
+        """An ``/observations`` array received at ``t``; ``sent``: who sealed it and when,
+        on its own clock (a host's clock may be off by seconds: its lag is counted from
+        the least delay it has shown)."""
         with self._lock:
+            if sent is not None:
+                sender, at = sent
+                delay = t - at
+                least = min(self._least.get(sender, delay), delay)
+                self._least[sender] = least
+                self._lag = max(self._lag, delay - least)
             rows = list(rows)
             self._heard(rows, t)
             for row in rows:
@@ -217,11 +236,37 @@ class EngineLoop:
             self._reload(self.path, now)
         with self._lock:
             self._lose_silent_hosts(now)
+            began = time.perf_counter()
             tick = self.diagnoser.tick()
-            tick = replace(tick, hosts=self.hosts.rows(self.diagnoser.node, now))
+            self.diagnosis_s = time.perf_counter() - began
+            lag, self._lag = self._lag, 0.0
+            tick = replace(
+                tick,
+                hosts=(*self.hosts.rows(self.diagnoser.node, now), self._pace(now, lag)),
+            )
         if tick.changed:
             self.log(OK, diagnosis_line(now, tick.result))
         return tick
+
+    def _pace(self, now: float, lag: float) -> Row:
+        """Whether the engine keeps up (``NODE: pace`` on /diagnostics); falling behind and
+        catching up again are logged."""
+        name = f"{self.diagnoser.node}: pace"
+        values = (("lag_s", f"{lag:.2f}"), ("diagnosis_s", f"{self.diagnosis_s:.3f}"))
+        if lag > BEHIND_S:
+            if self.behind is None:
+                self.behind = now
+                self.log(
+                    ERROR,
+                    f"t={now:.3f} engine behind: observations read {lag:.1f} s after they "
+                    f"were sent (the last diagnosis took {self.diagnosis_s:.2f} s); its "
+                    "diagnoses are that late",
+                )
+            return Row(name, WARN, f"behind: observations read {lag:.1f} s late", "", values)
+        if self.behind is not None:
+            self.log(WARN, f"t={now:.3f} engine caught up, after {now - self.behind:.1f} s behind")
+            self.behind = None
+        return Row(name, OK, f"keeping up (observations {lag:.2f} s old)", "", values)
 
     def _reload(self, target: str, now: float) -> None:
         try:

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 from rac.logic import Atom
@@ -63,6 +63,7 @@ class ObserverHost:
         self.owner: dict[Atom, str] = {a: s.name for s in self.specs for a in s.atoms}
         self.current: dict[Atom, Verdict] = {}
         self.changes: list[Verdict] = []  # since the last ``take_changes``
+        self.dirty: set[Atom] = set()  # atoms whose row changed since ``take_dirty``
         self.errors: list[str] = []  # observers that failed on an event, for the log
         self.notes: list[str] = []  # starvation began or ended, for the log
         self.starved = False
@@ -78,6 +79,10 @@ class ObserverHost:
         self.source = ""
         self._lock = threading.Lock()
         self._last_t = float("-inf")
+        self.received = 0  # messages fed so far (the host's cost report)
+        # The CPU time of the thread that receives and feeds the messages, where a transport
+        # has one (ROS 1's lean receiver): the per-message path, apart from the sampling.
+        self.path_cpu: Callable[[], float] | None = None
 
     @property
     def atoms(self) -> tuple[Atom, ...]:
@@ -95,13 +100,39 @@ class ObserverHost:
     def message(self, topic: str, values: Mapping[str, float], stamp: float | None = None) -> None:
         """A message received now; ``stamp`` its header stamp (None: none)."""
         with self._lock:
-            t = self._now()
-            schedule = self.schedule
-            if schedule is not None and not self.starved and self._last_tick is not None:
-                late = t - self._last_tick - schedule.period_s
-                if late > schedule.starved_s:
-                    self._starve(t, late, "a message came")
+            t = self._arrival(1)
             self._feed(Message(t, topic, values, stamp))
+
+    def _arrival(self, count: int) -> float:
+        """Now, for ``count`` messages that came: a message that comes while the sample
+        tick is overdue starts a starvation (the module's docstring).  Holds the lock."""
+        t = self._now()
+        schedule = self.schedule
+        if schedule is not None and not self.starved and self._last_tick is not None:
+            late = t - self._last_tick - schedule.period_s
+            if late > schedule.starved_s:
+                self._starve(t, late, "a message came")
+        self.received += count
+        return t
+
+    def messages(
+        self,
+        topic: str,
+        count: int,
+        stamps: Sequence[float | None] = (),
+        values: Sequence[Mapping[str, float]] = (),
+        seqs: Sequence[int | None] = (),
+    ) -> None:
+        """``count`` messages of ``topic`` received together now (a transport that reads
+        what came on a connection in one pass): as many :meth:`message` calls, for one
+        lock and one routing; ``stamps``, ``values`` and ``seqs`` each message's, or
+        empty."""
+        with self._lock:
+            t = self._arrival(count)
+            try:
+                self._keep(self.bank.feed_messages(t, topic, count, stamps, values, seqs))
+            except (ArithmeticError, ValueError) as err:  # one bad batch must not stop the host
+                self.errors.append(f"{count} messages of {topic} at t={self.wall(t):.3f}: {err}")
 
     def tick(self, wall: float, schedule: Schedule) -> None:
         """The sample loop's tick at wall-clock time ``wall``: the epoch, and whether the
@@ -219,6 +250,7 @@ class ObserverHost:
             self.withdrawn.pop(v.atom, None)
             self._withheld.pop(v.atom, None)
             self.changes.append(v)
+            self.dirty.add(v.atom)
 
     def withdraw(self, atoms: Iterable[Atom]) -> list[Atom]:
         """Make atoms unknown (their last verdict no longer holds); the ones that had one."""
@@ -231,6 +263,7 @@ class ObserverHost:
                     self._withheld[atom] = last
                 if last is not None or atom not in self.withdrawn:
                     self.withdrawn[atom] = t
+                    self.dirty.add(atom)
                     out.append(atom)
         return out
 
@@ -253,6 +286,7 @@ class ObserverHost:
     def annotate(self, atom: Atom, values: tuple[tuple[str, str], ...]) -> None:
         with self._lock:
             self.extra[atom] = values
+            self.dirty.add(atom)
 
     def take_changes(self) -> list[Verdict]:
         with self._lock:
@@ -269,13 +303,25 @@ class ObserverHost:
             out, self.notes = self.notes, []
             return out
 
-    def rows(self) -> tuple[Row, ...]:
-        """One status per current literal, sorted by atom."""
+    def take_dirty(self) -> set[Atom]:
+        """The atoms whose row changed since the last call (a verdict, a withdrawal, the
+        values of its row)."""
         with self._lock:
-            verdicts = sorted(self.current.values(), key=lambda v: v.atom)
+            out, self.dirty = self.dirty, set()
+            return out
+
+    def rows(self, only: set[Atom] | None = None) -> tuple[Row, ...]:
+        """One status per current literal, sorted by atom; ``only``: of those atoms alone."""
+        with self._lock:
+            current = (
+                self.current
+                if only is None
+                else {a: self.current[a] for a in only if a in self.current}
+            )
+            verdicts = sorted(current.values(), key=lambda v: v.atom)
             epoch = self.epoch
             extra = dict(self.extra)
-            gone = sorted(self.withdrawn.items())
+            gone = sorted((a, t) for a, t in self.withdrawn.items() if only is None or a in only)
         keyed = [
             (
                 v.atom,
@@ -323,6 +369,114 @@ class HostStep:
     rows: tuple[Row, ...] | None  # the observation set to publish now (None: nothing)
 
 
+# The host is one Python process: past this share of one core it cannot keep up with its
+# topics (messages wait in the kernel, then come in clumps, and it starves its own ticks).
+BUSY_CPU_PERCENT = 80.0
+COST_PERIOD_S = 10.0  # the cost is measured over this long
+
+
+@dataclass(frozen=True, slots=True)
+class HostCost:
+    """What the observer host received and what it cost over one period: the whole process
+    (every thread: the transport's receiving, the observers, the sample loop), as a share
+    of one core and per message received."""
+
+    seconds: float
+    messages: int
+    cpu_s: float
+    starved_s: float  # of the period, how long the host was starved
+    path_s: float | None = None  # of cpu_s, the receiving thread's (None: not measured)
+
+    @property
+    def rate(self) -> float:
+        return self.messages / self.seconds if self.seconds > 0 else 0.0
+
+    @property
+    def cpu_percent(self) -> float:
+        return 100.0 * self.cpu_s / self.seconds if self.seconds > 0 else 0.0
+
+    @property
+    def us_per_message(self) -> float:
+        return 1e6 * self.cpu_s / self.messages if self.messages else 0.0
+
+    @property
+    def us_per_message_path(self) -> float | None:
+        """The receiving thread's CPU per message: client library, observers, bookkeeping."""
+        if self.path_s is None or not self.messages:
+            return None
+        return 1e6 * self.path_s / self.messages
+
+    @property
+    def keeping_up(self) -> bool:
+        return self.cpu_percent < BUSY_CPU_PERCENT and self.starved_s < 0.5 * self.seconds
+
+    def text(self) -> str:
+        path = self.us_per_message_path
+        return (
+            f"{self.rate:.0f} messages/s, {self.cpu_percent:.1f} % of a core, "
+            f"{self.us_per_message:.1f} µs a message"
+            + ("" if path is None else f" ({path:.1f} µs receiving and observing)")
+            + ("" if self.starved_s <= 0 else f", starved {self.starved_s:.1f} s")
+        )
+
+    def row(self, node: str) -> Row:
+        """``NODE: load`` on ``/diagnostics``: level 0 while the host keeps up, 1 when it
+        cannot (its timing verdicts are then held as while starved)."""
+        values: tuple[tuple[str, str], ...] = (
+            ("messages_per_s", f"{self.rate:.1f}"),
+            ("cpu_percent", f"{self.cpu_percent:.1f}"),
+            ("us_per_message", f"{self.us_per_message:.2f}"),
+            ("starved_s", f"{self.starved_s:.2f}"),
+        )
+        path = self.us_per_message_path
+        if path is not None:
+            values += (("us_per_message_path", f"{path:.2f}"),)
+        if self.keeping_up:
+            return Row(f"{node}: load", 0, self.text(), "", values)
+        return Row(f"{node}: load", 1, f"cannot keep up: {self.text()}", "", values)
+
+
+class CostMeter:
+    """Measures :class:`HostCost` every ``period_s`` of the sample loop's ticks."""
+
+    def __init__(
+        self,
+        host: ObserverHost,
+        period_s: float = COST_PERIOD_S,
+        cpu: Callable[[], float] = time.process_time,
+    ) -> None:
+        self.host, self.period_s, self.cpu = host, period_s, cpu
+        self.last: HostCost | None = None
+        # (time, messages, cpu, the receiving thread's cpu)
+        self._since: tuple[float, int, float, float | None] | None = None
+        self._starved = 0.0
+        self._starved_at: float | None = None
+
+    def tick(self, now: float) -> HostCost | None:
+        """The cost of the period that ended at ``now``, when one did."""
+        host = self.host
+        if host.starved and self._starved_at is None:
+            self._starved_at = now
+        elif not host.starved and self._starved_at is not None:
+            self._starved += now - self._starved_at
+            self._starved_at = None
+        path = host.path_cpu() if host.path_cpu is not None else None
+        if self._since is None:
+            self._since = (now, host.received, self.cpu(), path)
+            return None
+        start, received, cpu, path_before = self._since
+        if now - start < self.period_s:
+            return None
+        if self._starved_at is not None:
+            self._starved += now - self._starved_at
+            self._starved_at = now
+        used = self.cpu()
+        on_path = None if path is None or path_before is None else path - path_before
+        cost = HostCost(now - start, host.received - received, used - cpu, self._starved, on_path)
+        self._since, self._starved, self.last = (now, host.received, used, path), 0.0, cost
+        return cost
+
+
 class HostLoop:
     """One sample period of the observer host node: whether the host is starved, node and
     property samples, the observers' clocks, what changed, and whether to publish (on a
@@ -340,6 +494,8 @@ class HostLoop:
         self.schedule = schedule or Schedule()
         self.placement = PlacementView(host.specs)
         self._last_publish = float("-inf")
+        self.cost = CostMeter(host)
+        self.cost_reported: HostCost | None = None  # the last period that did not keep up
 
     def _placements(self) -> list[str]:
         """How each node whose placement changed is watched now: logged, on its
@@ -369,11 +525,29 @@ class HostLoop:
         epoch = host.epoch
         lines += placed
         lines += [change_line(v, host.owner.get(v.atom, ""), epoch) for v in changes]
+        cost = self.cost.tick(now)
+        if cost is not None:
+            was = self.cost_reported
+            if not cost.keeping_up or was is not None:
+                lines.append(f"t={now:.3f} observer host load: {cost.text()}")
+            if not cost.keeping_up and (was is None or was.keeping_up):
+                lines.append(
+                    f"t={now:.3f} observer host cannot keep up: {cost.text()}; messages "
+                    "wait and arrive in clumps, so its verdicts come late"
+                )
+            self.cost_reported = cost if not cost.keeping_up else None
         warnings = tuple(f"an observer failed on {e}" for e in host.take_errors()[:5])
+        # The rows that changed as soon as they do; every row every ``republish_s``, for
+        # late subscribers and as the host's heartbeat.  A receiver merges what it gets
+        # (docs/runtime.md, /observations): a model of 10,000 observers does not send
+        # 10,000 rows ten times a second.
         rows = None
-        if changes or placed or now - self._last_publish >= self.republish_s:
+        dirty = host.take_dirty()
+        if now - self._last_publish >= self.republish_s:
             rows = host.rows()
             self._last_publish = now
+        elif dirty:
+            rows = host.rows(dirty)
         return HostStep(tuple(lines), warnings, rows)
 
 

@@ -105,8 +105,13 @@ def run_observer_node(
             bus.log(2 if silence else 0, host_blind_line(now, silence))
         blind = silence
         if now >= next_status:
+            cost = loop.cost.last
             status_pub(
-                [host_status(bus.name, blind), *([trust.row()] if trust is not None else [])]
+                [
+                    host_status(bus.name, blind),
+                    *([cost.row(bus.name)] if cost is not None else []),
+                    *([trust.row()] if trust is not None else []),
+                ]
             )
             next_status = now + STATUS_PERIOD_S
 
@@ -155,13 +160,12 @@ def run_engine_node(
     summary = bus.rows_publisher(DIAGNOSTICS_TOPIC, 10)
     trust = bus.trust
     gate = trust.gate(OBSERVATIONS, hosts, latched=True) if trust is not None else None
-    bus.on_rows(
-        OBSERVATIONS,
-        lambda rows: engine.observation_rows(rows, time.time()),
-        50,
-        latched=True,
-        gate=gate,
-    )
+
+    def on_observations(rows: list[Row]) -> None:
+        sent = trust.sent.get(OBSERVATIONS) if trust is not None else None
+        engine.observation_rows(rows, time.time(), sent)
+
+    bus.on_rows(OBSERVATIONS, on_observations, 50, latched=True, gate=gate)
 
     def on_reload(target: str, sender: str) -> None:
         why = engine.request_reload(target)

@@ -104,6 +104,7 @@ class ProcessProbe:
         # node -> when its process has settled (since boot); written whenever one is adopted
         self._settles_at: dict[str, float] = {}
         self._procs: dict[str, psutil.Process] = {}
+        self._born: dict[str, float] = {}  # node -> its process's start (psutil's)
         self._asked: dict[str, float] = {}  # when the middleware was last asked
         self._alive: dict[str, bool] = {}
         self._unanswered: dict[str, float] = {}  # since when the middleware has not answered
@@ -136,7 +137,9 @@ class ProcessProbe:
         if proc is None:
             return None
         try:
-            if proc.is_running() and proc.status() != psutil.STATUS_ZOMBIE:
+            # The state, and the start time that tells a reused pid from the node's
+            # process (what is_running checks, with a second Process object).
+            if proc.status() != psutil.STATUS_ZOMBIE and proc.create_time() == self._born[node]:
                 return proc
         except psutil.Error:
             pass
@@ -181,6 +184,7 @@ class ProcessProbe:
         """Watch ``pid`` as the node's process from now on (raises psutil.Error)."""
         proc = psutil.Process(pid)
         proc.cpu_percent(None)  # the first call only starts the measurement
+        self._born[node] = proc.create_time()
         # Once per process: psutil's boot time reads /proc/stat at every call.
         self._settles_at[node] = started_since_boot(proc) + self.settle_s
         self._procs[node] = proc
@@ -210,27 +214,33 @@ class ProcessProbe:
         out: list[Event] = []
         booted_s = self.since_boot()
         for node in self.nodes:
-            proc = self._local(node)
-            if proc is not None and self.recheck_s is not None:
-                proc = self._recheck(node, proc, t)
-            running: bool | None
-            if proc is not None:
-                running = True
-            else:
-                running = self._ask(node, t)
-                if running is None:  # asked a moment ago: the answer stands until next time
-                    running = self._alive.get(node)
-                proc = self._local(node) if running else None
-            if running is None:
-                continue
-            self._alive[node] = running
-            out.append(NodeSample(t, node, running))
-            if proc is None or not with_properties:
-                continue
-            try:
-                out += self._properties(node, proc, t, booted_s)
-            except psutil.Error:
-                self._procs.pop(node, None)
+            out += self._sample_node(node, t, booted_s, with_properties)
+        return out
+
+    def _sample_node(
+        self, node: str, t: float, booted_s: float, with_properties: bool
+    ) -> list[Event]:
+        proc = self._local(node)
+        if proc is not None and self.recheck_s is not None:
+            proc = self._recheck(node, proc, t)
+        running: bool | None
+        if proc is not None:
+            running = True
+        else:
+            running = self._ask(node, t)
+            if running is None:  # asked a moment ago: the answer stands until next time
+                running = self._alive.get(node)
+            proc = self._local(node) if running else None
+        if running is None:
+            return []
+        self._alive[node] = running
+        out: list[Event] = [NodeSample(t, node, running)]
+        if proc is None or not with_properties:
+            return out
+        try:
+            out += self._properties(node, proc, t, booted_s)
+        except psutil.Error:
+            self._procs.pop(node, None)
         return out
 
     def _properties(

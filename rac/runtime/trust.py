@@ -286,6 +286,9 @@ class Trust:
         self.refusals = Refusals(node, clock)
         self.log, self.clock = log, clock
         self._lock = threading.Lock()
+        # topic -> who sealed the last rows admitted on it, and when (the sender's clock):
+        # how far behind a receiver reads them (rac.runtime.diagnoser's lag)
+        self.sent: dict[str, tuple[str, float]] = {}
 
     def gate(self, purpose: str, senders: Collection[str] = (), latched: bool = False) -> Gate:
         return Gate(self.key, purpose, senders=senders, clock=self.clock, latched=latched)
@@ -319,6 +322,7 @@ class Trust:
         if isinstance(verdict, Refused):
             self.refuse(verdict.sender, topic, verdict.reason)
             return False
+        self.sent[topic] = (verdict.sender, verdict.t)
         return True
 
     def check_text(self, topic: str, gate: Gate, text: str) -> tuple[str, str] | None:

@@ -118,6 +118,16 @@ class TopicValues:
             out[field] = value
         return out
 
+    @property
+    def stamped(self) -> bool:
+        """Whether the type begins with a header, whose stamp is then at its fixed place."""
+        return self._stamp is not None
+
+    @property
+    def reads_fields(self) -> bool:
+        """Whether some observer reads fields of these messages (their bytes are needed)."""
+        return self._read is not None
+
     def stamp(self, raw: bytes) -> float | None:
         """The header stamp in seconds; None without a header, or when it is zero."""
         return None if self._stamp is None else self._stamp(raw)
@@ -145,6 +155,10 @@ class Readers:
         """The values and the header stamp (None: none) of one message."""
         reader = self._reader(topic, describe)
         return reader.values(raw), reader.stamp(raw)
+
+    def reader(self, topic: str, describe: Callable[[], tuple[str, str]]) -> TopicValues:
+        """The topic's :class:`TopicValues`, made from ``describe()`` on first use."""
+        return self._reader(topic, describe)
 
     def _reader(self, topic: str, describe: Callable[[], tuple[str, str]]) -> TopicValues:
         reader = self._readers.get(topic)

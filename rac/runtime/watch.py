@@ -32,7 +32,8 @@ class Watch:
         self.diagnoses: tuple[str, ...] | None = None
 
     def observations(self, rows: Sequence[Row], t: float) -> list[str]:
-        now = {r.name: r.message for r in rows}
+        # An array holds the rows that changed, or every row: merged into what was seen.
+        now = {**(self.literals or {}), **{r.name: r.message for r in rows}}
         stamp = f"{clock(t)} observations"
         if self.literals is None:
             self.literals = now

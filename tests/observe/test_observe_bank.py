@@ -223,3 +223,42 @@ def test_bank_advances_only_the_observers_time_can_change(model: str) -> None:
         assert not untimed, (event.t, untimed)
         bank.feed(event)
     assert timed_verdicts  # the silence from 8 s to 16 s was noticed by advancing alone
+
+
+def test_a_batch_of_messages_gives_each_observer_the_verdicts_of_one_message_at_a_time() -> None:
+    """ObserverBank.feed_messages (a transport that reads what came on a connection in one
+    pass) against feeding each message: per observer the same verdicts, through bursts,
+    a stop, a restart with its stamps jumping back, a rate fault and a value relation."""
+    rng = random.Random(36)
+    model = compile_model(load_model(MODELS / "tedusar.ram"))
+    one, batched = ObserverBank(model.observers), ObserverBank(model.observers)
+    topics = sorted(one.topic_fields())
+    fields = one.topic_fields()
+    t, stamp = 0.0, 1000.0
+    singles: list[Verdict] = []
+    batches: list[Verdict] = []
+    for step in range(3000):
+        t += 0.05
+        stamp = 900.0 if step == 1500 else stamp + 0.05  # a bag's loop starting over
+        if 600 <= step < 700 or (step % 97 == 0):
+            singles += one.advance(t)
+            batches += batched.advance(t)
+            continue  # every topic silent: a stop, and short pauses
+        for topic in topics:
+            count = rng.choice((0, 1, 2, 5, 8)) if step < 2200 else 12  # too fast at the end
+            stamps = [stamp + 0.01 * k for k in range(count)]
+            values = [{f: math.sin(t + k) for f in fields[topic]} for k in range(count)]
+            for k in range(count):
+                singles += one.feed(Message(t, topic, values[k], stamps[k]))
+            batches += batched.feed_messages(t, topic, count, stamps, values)
+        singles += one.advance(t)
+        batches += batched.advance(t)
+
+    def by_observer(verdicts: list[Verdict]) -> dict[Atom, list[tuple[float, bool]]]:
+        out: dict[Atom, list[tuple[float, bool]]] = {}
+        for v in verdicts:
+            out.setdefault(v.atom, []).append((v.t, v.positive))
+        return out
+
+    assert by_observer(batches) == by_observer(singles)
+    assert any(not v.positive for v in singles)  # the trace did flip verdicts

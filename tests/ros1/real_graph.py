@@ -167,9 +167,10 @@ class Graph:
 
 
 @contextmanager
-def real_graph(tmp: Path, model: Path = MODEL) -> Iterator[Graph]:
+def real_graph(tmp: Path, model: Path = MODEL, robot_launch: Path | None = None) -> Iterator[Graph]:
     """A roscore on a free port with racc's ROS package and ``model`` compiled; the
-    monitor subscribed.  The robot and the runtime are started by the caller."""
+    monitor subscribed.  The robot (``robot_launch``, by default this graph's) and the
+    runtime are started by the caller."""
     port = free_port()
     env = dict(os.environ)
     env.update(
@@ -192,7 +193,8 @@ def real_graph(tmp: Path, model: Path = MODEL) -> Iterator[Graph]:
             time.sleep(0.2)
         assert rosgraph.is_master_online(env["ROS_MASTER_URI"]), "roscore did not come up"
         watch = start_watch(procs, "ros1")
-        graph = Graph(env, tmp, procs, watch, tmp / "build", atoms, write_robot_launch(tmp))
+        launch = robot_launch or write_robot_launch(tmp)
+        graph = Graph(env, tmp, procs, watch, tmp / "build", atoms, launch)
         yield graph
     finally:
         for proc in reversed(procs.procs):

@@ -135,3 +135,57 @@ def test_a_late_tick_does_not_make_the_next_ones_come_early() -> None:
             now[0] += 0.35  # this tick's work took 0.35 s
     assert times == pytest.approx([0.0, 0.1, 0.45, 0.55, 0.65])
     assert all(s > 0 for s in slept)
+
+
+def test_the_host_measures_its_cost_and_says_when_it_cannot_keep_up() -> None:
+    from rac.runtime.host import CostMeter
+
+    host = ObserverHost([])
+    cpu = [0.0]
+    meter = CostMeter(host, period_s=10.0, cpu=lambda: cpu[0])
+    assert meter.tick(0.0) is None
+    host.received = 50_000
+    cpu[0] = 0.5
+    assert meter.tick(5.0) is None  # not a whole period yet
+    cost = meter.tick(10.0)
+    assert cost is not None
+    assert cost.rate == pytest.approx(5000.0)
+    assert cost.cpu_percent == pytest.approx(5.0)
+    assert cost.us_per_message == pytest.approx(10.0)
+    assert cost.keeping_up and cost.row("racc_observer").level == 0
+    host.received += 10_000
+    cpu[0] += 9.0  # 90 % of a core
+    busy = meter.tick(20.0)
+    assert busy is not None and not busy.keeping_up
+    row = busy.row("racc_observer")
+    assert row.level == 1 and row.message.startswith("cannot keep up: 1000 messages/s, 90.0 %")
+    assert row.name == "racc_observer: load"
+
+
+def test_a_change_publishes_its_rows_and_every_row_goes_out_once_a_second() -> None:
+    """/observations carries the rows that changed as soon as they do, and every row every
+    republish_s (a model of 10,000 observers must not send 10,000 rows at each change)."""
+    other = ObserverSpec(
+        "GObs",
+        "y_gobs",
+        (("topic", "/y"), ("delta", 0.1), ("mismatch_th", 5)),
+        (Atom("ok", ("y",)),),
+    )
+    now = [0.0]
+    host = ObserverHost([SPEC, other], clock=lambda: now[0])
+    loop = HostLoop(host, ProcessProbe([], lambda _: None), republish_s=1.0)
+    published: list[tuple[float, list[str]]] = []
+    for k in range(400):  # 4 s: /x at 100 Hz throughout, /y at 10 Hz until 2 s
+        now[0] = k / 100
+        host.message("/x", {})
+        if k % 10 == 0 and k < 200:
+            host.message("/y", {})
+        if k % 10 == 0:
+            step = loop.step(WALL0 + now[0])
+            if step.rows is not None:
+                published.append((now[0], [r.message for r in step.rows]))
+    # every row each second (none before the first verdicts); the first verdicts as they
+    # come; then only the row that changed
+    assert [t for t, _ in published] == [0.0, 1.0, 1.1, 2.0, 3.0, 3.4], published
+    assert dict(published)[3.0] == ["ok(x)", "ok(y)"]
+    assert dict(published)[3.4] == ["not_ok(y)"]

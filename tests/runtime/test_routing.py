@@ -234,21 +234,8 @@ def test_a_lost_host_has_its_atoms_unknown(tmp_path: Path) -> None:
     assert watch.rows("engine", 6.0)[0].level == 2
     assert watch.heard_from("racc_observer_arm", [atom], 7.0)  # back
     # In the engine: a not_running from the lost host no longer counts as a fault.
-    build = tmp_path / "build"
-    build.mkdir()
-    for name, text in emit_all(_compiled(), EmitOptions()).items():
-        (build / name).write_text(text, encoding="utf-8")
-    from rac.load.theory import load_theory
-
     logged: list[str] = []
-    engine = EngineLoop(
-        str(build / "model.yaml"),
-        load_theory,
-        "duo",
-        "racc_engine",
-        lambda level, text: logged.append(text),
-        host_lost_s=5.0,
-    )
+    engine = _engine(tmp_path, logged, host_lost_s=5.0)
     row = Row("running(talker)", 2, "not_running(talker)", "talker_nobs", (("host", "h_arm"),))
     engine.observation_rows([row], 100.0)
     tick = engine.step(100.0)
@@ -257,3 +244,48 @@ def test_a_lost_host_has_its_atoms_unknown(tmp_path: Path) -> None:
     assert tick is not None and tick.result.consistent
     assert any("observer host h_arm lost" in line for line in logged)
     assert tick.hosts[0].level == 2 and "unknown" in tick.hosts[0].message
+
+
+def test_an_engine_that_falls_behind_says_so_and_when_it_has_caught_up(tmp_path: Path) -> None:
+    """Observations read long after they were sealed (the engine's queue of arrays grew):
+    logged and a WARN row, never silent; a host's clock that is off by seconds is not."""
+    logged: list[str] = []
+    engine = _engine(tmp_path, logged)
+    row = Row("running(talker)", 0, "running(talker)", "talker_nobs", (("host", "h_arm"),))
+    # the host's clock is 4 s behind the engine's, and its arrays come at once
+    for t in (100.0, 101.0, 102.0):
+        engine.observation_rows([row], t, ("h_arm", t - 4.0))
+        tick = engine.step(t)
+        assert tick is not None
+        assert tick.hosts[-1].level == 0, tick.hosts
+    # then each array is read 3 s after it was sent
+    for t in (103.0, 104.0):
+        engine.observation_rows([row], t, ("h_arm", t - 7.0))
+        tick = engine.step(t)
+        assert tick is not None
+        pace = tick.hosts[-1]
+        assert pace.name == "racc_engine: pace" and pace.level == 1, pace
+        assert "behind: observations read 3.0 s late" in pace.message
+    engine.observation_rows([row], 105.0, ("h_arm", 101.0))
+    tick = engine.step(105.0)
+    assert tick is not None and tick.hosts[-1].level == 0
+    assert sum("engine behind" in line for line in logged) == 1
+    assert any("engine caught up, after 2.0 s behind" in line for line in logged)
+
+
+def _engine(tmp_path: Path, logged: list[str], host_lost_s: float = 5.0) -> EngineLoop:
+    """The engine of the two-machine model, logging into ``logged``."""
+    from rac.load.theory import load_theory
+
+    build = tmp_path / "build"
+    build.mkdir()
+    for name, text in emit_all(_compiled(), EmitOptions()).items():
+        (build / name).write_text(text, encoding="utf-8")
+    return EngineLoop(
+        str(build / "model.yaml"),
+        load_theory,
+        "duo",
+        "racc_engine",
+        lambda level, text: logged.append(text),
+        host_lost_s=host_lost_s,
+    )

@@ -13,6 +13,7 @@ from rac.logic import Atom
 from rac.observe import ObservationSet, Verdict
 from rac.repair import NoRepairPlan, Step, prepare, solve
 from rac.runtime.repairer.budget import Budgets
+from rac.runtime.repairer.evidence import crashed, downstream
 from rac.runtime.repairer.robot import RobotWatch
 from rac.runtime.repairer.settings import (
     EFFECTS,
@@ -82,6 +83,7 @@ class RepairExecutor:
         self._plan_key = float("nan")  # the diagnosis (its _since) the plan was made for
         self._failed = False  # the current attempt's request failed
         self._touched: frozenset[str] = frozenset()  # components the plan repairs or acts on
+        self._below: frozenset[str] = frozenset()  # the components downstream of those
         self._acted: list[Step] = []  # the steps requested in this plan
         self._unverified = 0  # plans in a row that ran but left a fault
         self.budgets = Budgets(settings)
@@ -236,8 +238,13 @@ class RepairExecutor:
             return
         if self._hold_key == self._since and now < self._hold_until:
             return
-        result = DiagnosisResult(False, (), diagnoses, self.theory.components, False)
         shown = self._shown()
+        # A node Θ shows not running is repaired first, alone (rac.runtime.repairer.evidence).
+        first = crashed(diagnoses, self.observations)
+        if first and any(set(d) - set(first) for d in diagnoses):
+            shown = f"{shown}; the crashed {', '.join(first)} first"
+            diagnoses = (first,)
+        result = DiagnosisResult(False, (), diagnoses, self.theory.components, False)
         try:
             prepared = prepare(
                 self.theory,
@@ -263,6 +270,7 @@ class RepairExecutor:
         self.plan_id += 1
         self.plan, self._plan_key = solved.plan, self._since
         self._touched = frozenset(prepared.bad) | set(targets)
+        self._below = downstream(self.theory, self._touched)
         bad = ",".join(prepared.bad)
         what = (
             f"plan {self.plan_id}: diagnosis {shown}: repairing {bad} with {steps_text(self.plan)} "
@@ -552,7 +560,13 @@ class RepairExecutor:
         diagnoses = self._diagnoses
         if not diagnoses or now - self._since < self.settings.confirm_s:
             return False
-        return not any(self._touched.intersection(d) for d in diagnoses)
+        if any(self._touched.intersection(d) for d in diagnoses):
+            return False
+        # Nodes below a repaired one receive again only once they have reconnected, and
+        # their topics' observers need a window: until the verification times out, that is
+        # the repair settling (rac.runtime.repairer.evidence).
+        below = self._below
+        return not all(set(d) <= below for d in diagnoses)
 
     def _check_verified(self, now: float) -> None:
         fresh = self._diagnosis_t > self._plan_done
