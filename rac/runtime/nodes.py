@@ -13,17 +13,19 @@ import time
 from collections import deque
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
-from rac.diagnosis import Theory
 from rac.passes.observers import DIAGNOSTICS_TOPIC
 from rac.runtime.bus import Bus
-from rac.runtime.diagnoser import EngineLoop
 from rac.runtime.host import HostLoop, ObserverHost, Schedule, ticks
 from rac.runtime.procs import ProcessProbe
-from rac.runtime.repairer import Actuator, LogEntry, RepairExecutor, Settings
+from rac.runtime.repairer import Actuator, LogEntry, Settings
 from rac.runtime.routing import Agent
 from rac.runtime.status import DIAGNOSIS, OBSERVATIONS, REPAIR_LOG, REPAIR_PLAN, Row
 from rac.runtime.trust import CONFIRM, read_confirm
+
+if TYPE_CHECKING:
+    from rac.diagnosis import Theory
 
 POLL_S = 0.05
 STATUS_PERIOD_S = 1.0  # the repairer's status on /diagnostics
@@ -146,6 +148,8 @@ def run_engine_node(
     file).  Observations count only from the observer hosts ``hosts`` (any, when empty)
     whose arrays carry the robot's seal; ``/diagnosis`` is sealed, and published at least
     once a second (the engine's heartbeat)."""
+    from rac.runtime.diagnoser import EngineLoop  # the engine's process only
+
     engine = EngineLoop(
         path,
         load,
@@ -235,6 +239,8 @@ def run_repair_node(
     def log(entry: LogEntry) -> None:
         bus.log(entry.level, str(entry))
         log_pub([entry.row()])
+
+    from rac.runtime.repairer.executor import RepairExecutor  # the repair node's only
 
     executor = RepairExecutor(
         theory,

@@ -41,8 +41,8 @@ diagnosis that stands and names none of the components the plan touched is a new
 repaired at once.  Every decision goes to ``log`` as a :class:`LogEntry`.
 """
 
-from rac.runtime.repairer.executor import RepairExecutor
-from rac.runtime.repairer.robot import RobotWatch
+from typing import TYPE_CHECKING
+
 from rac.runtime.repairer.settings import (
     EFFECTS,
     Actuator,
@@ -53,6 +53,26 @@ from rac.runtime.repairer.settings import (
     Settings,
     State,
 )
+
+if TYPE_CHECKING:
+    from rac.runtime.repairer.executor import RepairExecutor
+    from rac.runtime.repairer.robot import RobotWatch
+
+
+def __getattr__(name: str) -> object:
+    # The executor plans with Fast Downward (rac.repair, jinja2's templates): imported when
+    # a repair node asks for it, not by every racc process that needs an Actuator's shape
+    # (an observer host starting beside three others on a robot's two cores).
+    if name == "RepairExecutor":
+        from rac.runtime.repairer.executor import RepairExecutor
+
+        return RepairExecutor
+    if name == "RobotWatch":
+        from rac.runtime.repairer.robot import RobotWatch
+
+        return RobotWatch
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = [
     "EFFECTS",

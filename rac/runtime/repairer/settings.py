@@ -10,11 +10,13 @@ import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from rac.errors import RacError
-from rac.repair import Step
 from rac.runtime.status import ERROR, OK, WARN, Row
+
+if TYPE_CHECKING:
+    from rac.repair import Step  # the planner is the repair node's, not every process's
 
 EFFECTS = {  # action -> (predicate of the effect, its polarity)
     "stop_node": ("running", False),
