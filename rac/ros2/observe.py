@@ -21,6 +21,7 @@ are :func:`rac.runtime.nodes.run_observer_node`'s, shared with ROS 1.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from typing import Any
 
@@ -39,6 +40,7 @@ from rac.runtime.values import Readers
 
 DISCOVER_S = 0.5
 AUDIT_S = 1.0  # how often the graph's publishers of the observed topics are checked
+SOON_S = 0.1  # the next audit, after a publisher matched that the last one did not judge
 UNNAMED = "_NODE_NAME_UNKNOWN_"  # the graph's name of an endpoint whose node is not known yet
 
 
@@ -57,6 +59,9 @@ def run_observe(
 ) -> None:
     session = Session(name, key=key, role=OBSERVER)
     from diagnostic_msgs.msg import DiagnosticArray
+    from rclpy import exceptions as rclpy_errors
+
+    destroyed = getattr(rclpy_errors, "InvalidHandle", RuntimeError)  # Jazzy's, else older
 
     node = session.node
     host = ObserverHost(specs, sources=sources)
@@ -97,11 +102,25 @@ def run_observe(
         def on_message(raw: bytes) -> None:
             if topic in host.suspended:
                 return  # whose it is cannot be told: nothing of it is read
+            try:
+                matched = sub.get_publisher_count() if check.known else 0
+            except destroyed:
+                return  # parked meanwhile: a message the executor had taken before
+            if matched > vetted.get(topic, 0):
+                # A publisher matched since the last audit (DDS matches before it delivers,
+                # the graph may name it later): until the audit has judged it, no message
+                # of the topic counts, so that a stranger's first second counts for nothing.
+                host.suspend_topic(topic, "a publisher not judged yet")
+                audit_soon()
+                return
             values, stamp = readers.read(topic, raw, lambda: (ros_type, ""))
             host.message(topic, values, stamp)
 
-        subs[topic] = node.create_subscription(cls, topic, on_message, sensor_qos(), raw=True)
+        sub = node.create_subscription(cls, topic, on_message, sensor_qos(), raw=True)
+        subs[topic] = sub
         kinds[topic] = ros_type if not declared or message_class(declared) is None else declared
+        if check.known:
+            audit_topic(topic)  # before its first message: the publishers the graph shows now
 
     parked: dict[str, Any] = {}  # contested topics: unsubscribed meanwhile, and their type
 
@@ -149,6 +168,47 @@ def run_observe(
             out.append((name, info.topic_type, named, reported))
         return out
 
+    vetted: dict[str, int] = {}  # topic -> its publishers the last audit found all the model's
+
+    def audit_soon() -> None:
+        nonlocal next_audit
+        next_audit = min(next_audit, time.time() + SOON_S)  # the ticks' clock
+
+    def audit_topic(topic: str) -> None:
+        """The graph's publishers of ``topic`` against the model's."""
+        contested, unseen = [], False
+        declared = check.declared_type(topic)
+        kind_of_sub = kinds.get(topic, "")
+        checks_type = declared is not None and kind_of_sub == declared
+        same_type = 0
+        for publisher, kind, named, reported in publishers(topic):
+            same = type_name(kind) == type_name(kind_of_sub)
+            same_type += same
+            why = check.stranger(topic, publisher) if named else "not named in the graph"
+            if checks_type and not why:
+                why = check.wrong_type(topic, kind)
+            if why is None:
+                continue
+            if reported:
+                refuse(publisher, topic, why)
+            if same:
+                contested.append(f"{publisher} publishes it too")
+        sub = subs.get(topic)
+        if sub is not None and topic not in parked and sub.get_publisher_count() > same_type:
+            unseen = True  # matched by DDS, not in the graph yet: judged at the next audit
+        if contested:
+            vetted.pop(topic, None)
+            host.suspend_topic(topic, "; ".join(contested))
+            park(topic)
+        elif unseen:
+            vetted.pop(topic, None)
+            host.suspend_topic(topic, "a publisher not in the graph yet")
+            audit_soon()
+        else:
+            vetted[topic] = same_type
+            host.resume_topic(topic)
+            unpark(topic)  # subscribes again, and judges the topic's publishers once more
+
     def audit(now: float) -> None:
         """The graph's publishers of each observed topic against the model's."""
         nonlocal next_audit
@@ -156,25 +216,7 @@ def run_observe(
             return
         next_audit = now + AUDIT_S
         for topic in sorted(subs):
-            contested = []
-            declared = check.declared_type(topic)
-            checks_type = declared is not None and kinds.get(topic) == declared
-            for publisher, kind, named, reported in publishers(topic):
-                why = check.stranger(topic, publisher) if named else "not named in the graph"
-                if checks_type and not why:
-                    why = check.wrong_type(topic, kind)
-                if why is None:
-                    continue
-                if reported:
-                    refuse(publisher, topic, why)
-                if type_name(kind) == type_name(kinds.get(topic, "")):
-                    contested.append(f"{publisher} publishes it too")
-            if contested:
-                host.suspend_topic(topic, "; ".join(contested))
-                park(topic)
-            else:
-                unpark(topic)
-                host.resume_topic(topic)
+            audit_topic(topic)
         if bank.devices:
             # Whose status a /diagnostics message is cannot be told here: while a node that
             # is neither the model's nor racc's publishes there, the device observers are
