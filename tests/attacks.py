@@ -298,10 +298,14 @@ def run_attack(
     log: Path,
     argument: str = "",
 ) -> subprocess.Popen[bytes]:
-    """Start ``attack`` (it ends by itself after ``seconds`` and its set-up)."""
+    """Start ``attack`` (it ends by itself after ``seconds`` and its set-up).
+
+    A stranger's process runs on a computer of its own; here it shares the robot's two
+    cores, so it runs at the lowest priority: what is tried is its traffic, not its Python
+    start-up and its flood's CPU starving the demo's nodes (a real fault racc would see)."""
     out = open(log, "ab")  # noqa: SIM115 (the child keeps it; closed when the test's dir goes)
     return subprocess.Popen(
-        attack_command(ros, attack, seconds, argument),
+        ["nice", "-n", "19", *attack_command(ros, attack, seconds, argument)],
         env=dict(env),
         stdout=out,
         stderr=subprocess.STDOUT,

@@ -23,6 +23,9 @@ from rac.observe.gobs import GObs
 from rac.passes.observers import DIAGNOSTICS_TOPIC, ObserverSpec
 
 K = TypeVar("K")
+
+# Observers that judge the values a topic carries, not when its messages come.
+VALUE_KINDS = frozenset({"BiQObs", "IObs"})
 _NO_VALUES: Mapping[str, float] = MappingProxyType({})
 
 
@@ -82,19 +85,26 @@ class ObserverBank:
         self._index()
         return [a for i in found for a in self.observers[i].spec.atoms]
 
-    def resume(self, topic: str) -> None:
-        """The observers of ``topic`` start again, afresh: nothing of before counts (a
-        frequency observer would otherwise read the pause as silence)."""
+    def resume(self, topic: str, keep_values: bool = False) -> list[Atom]:
+        """The observers of ``topic`` start again.  Those that time messages start afresh:
+        nothing of before counts (a frequency observer would otherwise read the pause as
+        silence).  With ``keep_values`` (a short pause), those that judge values (BiQObs,
+        IObs) go on from where they stopped: they were fed nothing meanwhile, and a
+        relation's history takes many seconds to gather again.  The atoms of the kept
+        observers, whose last verdicts hold again."""
         found = [i for i in self._readers(topic) if i in self._suspended]
         if not found:
-            return
-        fresh = build_all(self.observers[i].spec for i in found)
+            return []
+        kept = [i for i in found if keep_values and self.observers[i].spec.kind in VALUE_KINDS]
+        timed = [i for i in found if i not in kept]
+        fresh = build_all(self.observers[i].spec for i in timed)
         observers = list(self.observers)
-        for i, obs in zip(found, fresh, strict=True):
+        for i, obs in zip(timed, fresh, strict=True):
             observers[i] = obs
-            self._suspended.discard(i)
+        self._suspended.difference_update(found)
         self.observers = tuple(observers)
         self._index()
+        return [a for i in kept for a in self.observers[i].spec.atoms]
 
     def suspended(self, topic: str) -> bool:
         return any(i in self._suspended for i in self._readers(topic))

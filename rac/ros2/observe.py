@@ -40,6 +40,7 @@ from rac.runtime.values import Readers
 
 DISCOVER_S = 0.5
 AUDIT_S = 1.0  # how often the graph's publishers of the observed topics are checked
+UNNAMED_S = 2.0  # an endpoint unnamed this long is reported (discovery names it sooner)
 SOON_S = 0.1  # the next audit, after a publisher matched that the last one did not judge
 UNNAMED = "_NODE_NAME_UNKNOWN_"  # the graph's name of an endpoint whose node is not known yet
 
@@ -110,9 +111,13 @@ def run_observe(
                 # A publisher matched since the last audit (DDS matches before it delivers,
                 # the graph may name it later): until the audit has judged it, no message
                 # of the topic counts, so that a stranger's first second counts for nothing.
-                host.suspend_topic(topic, "a publisher not judged yet")
+                # Before the topic's first message there is nothing to suspend: its
+                # observers have not spoken (the robot's own publishers, found at start).
+                if topic in heard:
+                    host.suspend_topic(topic, "a publisher not judged yet")
                 audit_soon()
                 return
+            heard.add(topic)
             values, stamp = readers.read(topic, raw, lambda: (ros_type, ""))
             host.message(topic, values, stamp)
 
@@ -149,25 +154,26 @@ def run_observe(
                 matching = [t for t in types if declared and type_name(t) == declared]
                 subscribe(topic, (matching or types)[0])
 
-    unnamed: set[tuple[str, str]] = set()  # (topic, gid) of endpoints without a name yet
+    unnamed: dict[tuple[str, str], float] = {}  # (topic, gid) -> when first seen unnamed
 
     def publishers(topic: str) -> list[tuple[str, str, bool, bool]]:
         """(node, type, named, reported) of each publisher of ``topic`` in the graph.
         Discovery tells an endpoint before its node's name: such an endpoint counts as a
         stranger (its messages cannot be told apart) but is reported only once it has
-        stayed unnamed over two audits."""
+        stayed unnamed for UNNAMED_S."""
         out = []
+        now = time.monotonic()
         for info in node.get_publishers_info_by_topic(topic):
             named = UNNAMED not in info.node_name
             name = f"{info.node_namespace.rstrip('/')}/{info.node_name}".lstrip("/")
             key = (topic, str(list(info.endpoint_gid)))
-            reported = named or key in unnamed
+            reported = named or now - unnamed.setdefault(key, now) >= UNNAMED_S
             if not named:
-                unnamed.add(key)
                 name = "an endpoint whose node is not named"
             out.append((name, info.topic_type, named, reported))
         return out
 
+    heard: set[str] = set()  # topics a message of which counted
     vetted: dict[str, int] = {}  # topic -> its publishers the last audit found all the model's
 
     def audit_soon() -> None:
@@ -176,7 +182,7 @@ def run_observe(
 
     def audit_topic(topic: str) -> None:
         """The graph's publishers of ``topic`` against the model's."""
-        contested, unseen = [], False
+        contested, unseen, unnamed_yet = [], False, False
         declared = check.declared_type(topic)
         kind_of_sub = kinds.get(topic, "")
         checks_type = declared is not None and kind_of_sub == declared
@@ -189,21 +195,32 @@ def run_observe(
                 why = check.wrong_type(topic, kind)
             if why is None:
                 continue
-            if reported:
-                refuse(publisher, topic, why)
+            if not reported:
+                # Not named yet, as a robot's own node that has just (re)started: judged
+                # again soon; meanwhile the publishers counted at the last audit go on
+                # counting, and the gate drops the topic's messages if there are more.
+                unnamed_yet = True
+                continue
+            refuse(publisher, topic, why)
             if same:
                 contested.append(f"{publisher} publishes it too")
         sub = subs.get(topic)
         if sub is not None and topic not in parked and sub.get_publisher_count() > same_type:
             unseen = True  # matched by DDS, not in the graph yet: judged at the next audit
-        if contested:
+        if contested or unseen:
+            # Not vetted: the gate drops the topic's messages.  Its observers are suspended
+            # only once they have heard it (before, they have said nothing to take back).
             vetted.pop(topic, None)
-            host.suspend_topic(topic, "; ".join(contested))
-            park(topic)
-        elif unseen:
-            vetted.pop(topic, None)
-            host.suspend_topic(topic, "a publisher not in the graph yet")
-            audit_soon()
+            if topic in heard:
+                host.suspend_topic(
+                    topic, "; ".join(contested) or "a publisher not in the graph yet"
+                )
+            if contested:
+                park(topic)
+            if unseen or unnamed_yet:
+                audit_soon()
+        elif unnamed_yet:
+            audit_soon()  # discovery names a robot's own endpoints within moments
         else:
             vetted[topic] = same_type
             host.resume_topic(topic)

@@ -74,6 +74,7 @@ class ObserverHost:
         self.extra: dict[Atom, tuple[tuple[str, str], ...]] = {}  # more values of a row
         self.withdrawn: dict[Atom, float] = {}  # atoms made unknown, since when
         self._withheld: dict[Atom, Verdict] = {}  # the last verdict of a withdrawn atom
+        self._suspended_at: dict[str, float] = {}  # topic -> when its observers paused
         # The host's node name, on every row (value "host"): the engine tells hosts apart
         # by it and makes a silent host's atoms unknown (rac.runtime.hosts).
         self.source = ""
@@ -211,6 +212,7 @@ class ObserverHost:
                 return
             atoms = self.bank.suspend(topic)
             self.suspended.add(topic)
+            self._suspended_at[topic] = self._now()
             self.notes.append(
                 f"t={self.wall(self._now()):.3f} observers of {topic} suspended ({why}): "
                 f"{len(atoms)} atoms unknown"
@@ -218,15 +220,22 @@ class ObserverHost:
         self.withdraw(atoms)
 
     def resume_topic(self, topic: str) -> None:
+        """``topic``'s observers are fed again: those that time its messages afresh; after
+        a pause shorter than KEEP_PAUSED_S (a robot's node restarting, a stranger's
+        message that came and went), those that judge its values from where they were."""
         with self._lock:
             if not self.bank.suspended(topic):
                 return
-            self.bank.resume(topic)
+            now = self._now()
+            paused = now - self._suspended_at.pop(topic, now)
+            kept = self.bank.resume(topic, keep_values=paused <= KEEP_PAUSED_S)
             self.suspended.discard(topic)
             self.notes.append(
-                f"t={self.wall(self._now()):.3f} observers of {topic} resumed, afresh: only "
-                "the model's publishers publish it again"
+                f"t={self.wall(now):.3f} observers of {topic} resumed after {paused:.2f} s "
+                f"({'timing afresh, values kept' if kept else 'afresh'}): only the model's "
+                "publishers publish it again"
             )
+        self.restore(kept)
 
     def channel_rows(self, rows: Iterable[Row]) -> None:
         """A ``/board_measurements`` array (HObs)."""
@@ -372,6 +381,8 @@ class HostStep:
 # The host is one Python process: past this share of one core it cannot keep up with its
 # topics (messages wait in the kernel, then come in clumps, and it starves its own ticks).
 BUSY_CPU_PERCENT = 80.0
+# A value observer paused this long or less goes on from its state when its topic resumes.
+KEEP_PAUSED_S = 10.0
 COST_PERIOD_S = 10.0  # the cost is measured over this long
 
 

@@ -156,3 +156,37 @@ def test_a_suspended_topic_feeds_nothing_and_starts_afresh() -> None:
     assert [str(v) for v in out] == ["ok(pose)"]  # a fresh window, no stale silence
     assert bank.suspend("/diagnostics") == [Atom("ok", ("hokuyo",))]
     assert bank.feed(DeviceStatus(70.0, "hokuyo", "hokuyo", 2)) == []
+
+
+IOBS = ObserverSpec(
+    "IObs",
+    "speed_iobs",
+    (("topic1", "/pose"), ("field1", "v"), ("topic2", "/pose"), ("field2", "w"), ("max_diff", 1.0)),
+    (Atom("equal", ("pose", "v", "pose", "w")),),
+)
+
+
+def test_a_short_pause_keeps_the_value_observers_and_their_verdicts() -> None:
+    """A topic resumed after a short pause (a robot's node restarting) keeps what its
+    value observers had judged: a relation's history takes many seconds to gather again.
+    Its frequency observer starts afresh; after a long pause, all do."""
+    now = [0.0]
+    host = ObserverHost([GOBS, IOBS], clock=lambda: now[0])
+    equal, ok = Atom("equal", ("pose", "v", "pose", "w")), Atom("ok", ("pose",))
+    for k in range(40):
+        now[0] = k * 0.1
+        host.message("/pose", {"v": 1.0, "w": 1.2}, None)
+        host.advance()
+    assert host.current[equal].positive and host.current[ok].positive
+    host.suspend_topic("/pose", "a publisher not judged yet")
+    assert equal not in host.current and ok not in host.current
+    now[0] = 6.0
+    host.resume_topic("/pose")
+    assert host.current[equal].positive and host.current[equal].t == 6.0  # holds again
+    assert ok not in host.current  # the frequency observer waits for a fresh window
+    assert "values kept" in host.notes[-1]
+    host.suspend_topic("/pose", "a stranger publishes it too")
+    now[0] = 30.0
+    host.resume_topic("/pose")
+    assert equal not in host.current and ok not in host.current
+    assert "(afresh)" in host.notes[-1]
