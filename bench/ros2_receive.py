@@ -14,12 +14,12 @@ CPU seconds per message received:
 - ``host``: the callback is the observer host's (the header stamp read from the bytes, the
   message fed to the frequency observers of a model of these topics);
 
-each with rclpy's ``SingleThreadedExecutor`` (what racc uses) and with its C++
-``EventsExecutor`` (``rclpy.experimental``, Jazzy), which costs a message about a third as
-much but which racc does not use: the observer host subscribes to topics as they appear
-while its executor spins, and spun by the events executor the host hung at start (the
-ROS 2 hostile test's runtime never came up).  Run with ``ROS_DOMAIN_ID`` of your own and
-``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``.
+each with racc's receiving thread (``take``, :mod:`rac.ros2.receive`: raw subscriptions
+that no executor waits on, every message taken in batches every 50 ms), with rclpy's
+``SingleThreadedExecutor`` and a callback per message (what racc used before) and with its
+C++ ``EventsExecutor`` (``rclpy.experimental``, Jazzy), which racc does not use: spun by it
+the host hung at start (the ROS 2 hostile test's runtime never came up).  Run with
+``ROS_DOMAIN_ID`` of your own and ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``.
 """
 
 from __future__ import annotations
@@ -101,6 +101,7 @@ def receive(n: int, seconds: float, mode: str, executor_kind: str) -> None:
     host = ObserverHost(specs)
     readers = Readers(host.bank.topic_fields(), ros_version=2)
     count = [0]
+    taking: list[Callable[[], float]] = [lambda: 0.0]  # the taking thread's CPU seconds
 
     def _callback(mode: str, topic: str, kind: str) -> Callable[[bytes], None]:
         def counted(raw: bytes) -> None:
@@ -113,9 +114,32 @@ def receive(n: int, seconds: float, mode: str, executor_kind: str) -> None:
 
         return counted if mode == "count" else observed
 
-    for topic, kind, _ in topics(n):
-        cls = Imu if kind.endswith("Imu") else JointState
-        node.create_subscription(cls, topic, _callback(mode, topic, kind), sensor_qos(), raw=True)
+    if executor_kind == "take":
+        # racc's host: raw subscriptions no executor waits on, taken from by one thread.
+        from rac.ros2.receive import Batch, PollingReceiver, depth_for, raw_subscription
+
+        kinds = {topic: kind for topic, kind, _ in topics(n)}
+
+        def on_batch(batch: Batch) -> None:
+            count[0] += len(batch.raws)
+            if mode == "count":
+                return
+            kind = kinds[batch.topic]
+            reader = readers.reader(batch.topic, lambda: (kind, ""))
+            stamps = [reader.stamp(raw) for raw in batch.raws] if reader.stamped else []
+            host.messages(batch.topic, len(batch.raws), stamps)
+
+        receiver = PollingReceiver(on_batch, raw_subscription(node, sensor_qos))
+        for topic, kind, rate in topics(n):
+            cls = Imu if kind.endswith("Imu") else JointState
+            receiver.subscribe(topic, cls, depth_for(rate))
+        receiver.start()
+        taking[0] = lambda: receiver.cpu_s
+    else:
+        for topic, kind, _ in topics(n):
+            cls = Imu if kind.endswith("Imu") else JointState
+            callback = _callback(mode, topic, kind)
+            node.create_subscription(cls, topic, callback, sensor_qos(), raw=True)
     if executor_kind == "events":
         from rclpy.experimental import EventsExecutor
 
@@ -128,17 +152,20 @@ def receive(n: int, seconds: float, mode: str, executor_kind: str) -> None:
     while time.monotonic() < warm:
         spin(timeout_sec=0.1)
     c0, r0, w0 = count[0], resource.getrusage(resource.RUSAGE_SELF), time.monotonic()
+    k0 = taking[0]()
     while time.monotonic() < w0 + seconds:
         spin(timeout_sec=0.1)
     c1, r1, w1 = count[0], resource.getrusage(resource.RUSAGE_SELF), time.monotonic()
+    k1 = taking[0]()
     got = c1 - c0
     cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
     print(
         f"{mode:<6} {executor_kind:<7} {got / (w1 - w0):7.0f} msg/s  {100 * cpu / (w1 - w0):5.1f} %"
         f" of a core  {1e6 * cpu / max(got, 1):6.1f} µs a message  "
         f"(user {1e6 * (r1.ru_utime - r0.ru_utime) / max(got, 1):.1f}, "
-        f"system {1e6 * (r1.ru_stime - r0.ru_stime) / max(got, 1):.1f})  "
-        f"load {os.getloadavg()[0]:.1f}",
+        f"system {1e6 * (r1.ru_stime - r0.ru_stime) / max(got, 1):.1f}"
+        + (f"; the taking thread {1e6 * (k1 - k0) / max(got, 1):.1f}" if k1 > k0 else "")
+        + f")  load {os.getloadavg()[0]:.1f}",
         flush=True,
     )
     os._exit(0)  # rclpy's shutdown with an executor mid-spin can hang
@@ -153,6 +180,12 @@ def main() -> None:
     parser.add_argument("--role", choices=("main", "publish", "receive"), default="main")
     parser.add_argument("--mode", default="count")
     parser.add_argument("--executor", default="single")
+    parser.add_argument(
+        "--executors",
+        default="take,single,events",
+        help="the receive paths compared (take: racc's receiving thread; single, events: "
+        "rclpy's executors with a callback per message)",
+    )
     args = parser.parse_args()
     if args.role == "publish":
         publish(args.topics, args.seconds)
@@ -161,7 +194,7 @@ def main() -> None:
         receive(args.topics, args.seconds, args.mode, args.executor)
         return
     me = [sys.executable, __file__, "--topics", str(args.topics)]
-    cases = [(m, e) for m in ("count", "host") for e in ("single", "events")]
+    cases = [(m, e) for m in ("count", "host") for e in args.executors.split(",")]
     total = (args.seconds + 8) * len(cases) + 10
     talker = subprocess.Popen([*me, "--role", "publish", "--seconds", str(total)])
     try:

@@ -3,16 +3,21 @@ rclpy process.
 
 Topics are subscribed as they appear in the graph (raw CDR, best effort, with the type the
 model declares, else the one the graph names; only the fields an observer reads are
-deserialized, with rosbags).
+deserialized, with rosbags).  Their messages do not go through rclpy's executor: one
+thread takes what waits on every subscription every 50 ms and hands each topic's messages
+to the frequency observers as one batch (:mod:`rac.ros2.receive`).
 
 **Whose messages count** (:mod:`rac.runtime.sources`).  rclpy does not say which publisher
 sent a message, so the graph does: once a second the host reads each observed topic's
 publishers.  One of another type never reaches the host (DDS matches a subscription only
 with publishers of its type): it is reported.  One of the declared type that the model
 does not name cannot be told apart from the model's own: the topic's observers are
-suspended (their atoms unknown, never a fault) while it publishes, and start afresh when
-it has gone; it is reported.  Within an SROS2 enclave whose policy lets only the model's
-nodes publish, neither happens (docs/security.md).  NObs:
+suspended (their atoms unknown, never a fault) while it publishes, and start again when
+it has gone; it is reported.  DDS matches a publisher before it delivers and before the
+graph names its node: a topic whose subscription has matched more publishers than the
+last audit judged counts none of its messages until the next audit (within 0.1 s).
+Within an SROS2 enclave whose policy lets only the model's nodes publish, neither happens
+(docs/security.md).  NObs:
 the graph (``get_node_names_and_namespaces``) and the node's process, found by its
 ``__node:=`` argument (:class:`rac.ros2.common.PidResolver`); PObs: cpu and memory of that
 process.  The sample loop, the agent's turn and the publication rule
@@ -28,6 +33,7 @@ from typing import Any
 from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec, TopicSource
 from rac.ros2.agent import start_agent
 from rac.ros2.common import PidResolver, Session, graph_nodes, message_class, sensor_qos
+from rac.ros2.receive import Batch, PollingReceiver, depth_for, raw_subscription
 from rac.runtime.guardian import DEFAULT_GONE_S
 from rac.runtime.host import ObserverHost
 from rac.runtime.nodes import run_observer_node
@@ -73,6 +79,13 @@ def run_observe(
     wanted = frozenset(bank.topic_fields())
     subs: dict[str, Any] = {}
     kinds: dict[str, str] = {}  # topic -> the type it is subscribed with
+    graph_types: dict[str, str] = {}  # topic -> the type the graph names (its values' reader)
+    # A topic's rate in the model sizes its subscription's queue between two passes.
+    rates = {
+        str(dict(o.params)["topic"]): 1.0 / float(dict(o.params)["delta"])
+        for o in specs
+        if o.kind == "GObs" and float(dict(o.params).get("delta") or 0.0) > 0
+    }
     unknown: set[str] = set()
     next_discover = next_audit = 0.0
 
@@ -81,6 +94,36 @@ def run_observe(
     refuse = trust.refuse if trust is not None else host.refuse
     if trust is not None:
         host.refuse = trust.refuse
+
+    def on_batch(batch: Batch) -> None:
+        """What one pass took from ``batch.topic``'s subscription (the receiving thread)."""
+        topic = batch.topic
+        if topic in host.suspended:
+            return  # whose it is cannot be told: nothing of it is read
+        sub = subs.get(topic)
+        try:
+            matched = sub.get_publisher_count() if sub is not None and check.known else 0
+        except destroyed:
+            return  # parked during the pass: its subscription is gone
+        if matched > vetted.get(topic, 0):
+            # A publisher matched since the last audit (DDS matches before it delivers, the
+            # graph may name it later): until the audit has judged it, no message of the
+            # topic counts, so that a stranger's first messages count for nothing.  Before
+            # the topic's first message there is nothing to suspend: its observers have not
+            # spoken (the robot's own publishers, found at start).
+            if topic in heard:
+                host.suspend_topic(topic, "a publisher not judged yet")
+            audit_soon()
+            return
+        heard.add(topic)
+        reader = readers.reader(topic, lambda: (graph_types[topic], ""))
+        raws = batch.raws
+        stamps = [reader.stamp(raw) for raw in raws] if reader.stamped else []
+        values = [reader.values(raw) for raw in raws] if reader.reads_fields else []
+        host.messages(topic, len(raws), stamps, values)
+
+    receiver = PollingReceiver(on_batch, raw_subscription(node, sensor_qos))
+    host.path_cpu = lambda: receiver.cpu_s
 
     def subscribe(topic: str, ros_type: str) -> None:
         declared = check.declared_type(topic)
@@ -100,30 +143,9 @@ def run_observe(
                 session.log(1, f"racc observe: {topic}: type {ros_type} is not importable")
             return
 
-        def on_message(raw: bytes) -> None:
-            if topic in host.suspended:
-                return  # whose it is cannot be told: nothing of it is read
-            try:
-                matched = sub.get_publisher_count() if check.known else 0
-            except destroyed:
-                return  # parked meanwhile: a message the executor had taken before
-            if matched > vetted.get(topic, 0):
-                # A publisher matched since the last audit (DDS matches before it delivers,
-                # the graph may name it later): until the audit has judged it, no message
-                # of the topic counts, so that a stranger's first second counts for nothing.
-                # Before the topic's first message there is nothing to suspend: its
-                # observers have not spoken (the robot's own publishers, found at start).
-                if topic in heard:
-                    host.suspend_topic(topic, "a publisher not judged yet")
-                audit_soon()
-                return
-            heard.add(topic)
-            values, stamp = readers.read(topic, raw, lambda: (ros_type, ""))
-            host.message(topic, values, stamp)
-
-        sub = node.create_subscription(cls, topic, on_message, sensor_qos(), raw=True)
-        subs[topic] = sub
         kinds[topic] = ros_type if not declared or message_class(declared) is None else declared
+        graph_types[topic] = ros_type
+        subs[topic] = receiver.subscribe(topic, cls, depth_for(rates.get(topic)))
         if check.known:
             audit_topic(topic)  # before its first message: the publishers the graph shows now
 
@@ -132,10 +154,9 @@ def run_observe(
     def park(topic: str) -> None:
         """A contested topic's messages are not read: while a stranger floods it, its
         subscription is dropped, so that DDS delivers none of them to this process."""
-        sub = subs.get(topic)
-        if sub is not None and topic not in parked:
-            node.destroy_subscription(sub)
-            parked[topic] = kinds.get(topic, "")
+        if topic in subs and topic not in parked:
+            receiver.unsubscribe(topic)
+            parked[topic] = graph_types.get(topic, "")
 
     def unpark(topic: str) -> None:
         kind = parked.pop(topic, None)
@@ -259,6 +280,8 @@ def run_observe(
     def each_tick(now: float) -> None:
         discover(now)
         audit(now)
+        for error in receiver.take_errors():
+            session.log(2, f"racc observe: receiving {error}")
 
     if bank.devices:
         # Who published a status is not told here: every status counts (docs/security.md).
@@ -277,6 +300,7 @@ def run_observe(
         )
     resolver = PidResolver(lambda: graph_nodes(session))
     probe = ProcessProbe(bank.nodes, resolver, bank.properties, recheck_s=1.0, settle_s=settle_s)
+    receiver.start()
     try:
         run_observer_node(
             session,
@@ -290,4 +314,5 @@ def run_observe(
             each_tick=each_tick,
         )
     finally:
+        receiver.stop()
         session.close()
