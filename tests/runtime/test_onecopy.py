@@ -111,7 +111,7 @@ def test_an_alive_old_process_is_stopped_first_then_the_node_starts(procs: Procs
         assert f"the old process pid {old.pid}" in note and "stopped it first (SIGINT)" in note
         assert "never two copies" in note and f"as pid {new}" in note
         # One copy only: the one racc started.
-        assert [c.pid for c in local_copies(node, 2, None)[0]] == [new]
+        assert [c.pid for c in _wait_named(node, 2)] == [new]  # once it has exec'd
         # Asked again at once (a step's second attempt, a node slow to come up under load):
         # the copy racc just started is waited for, neither stopped nor doubled.
         waiting = a.start_node(node)
