@@ -8,6 +8,7 @@ the observers would measure (see the two entries).
 
 from __future__ import annotations
 
+import signal
 import subprocess
 from collections.abc import Sequence
 
@@ -20,6 +21,10 @@ def run_node(
     launch or racc run stopping the node) is a clean end, also while racc is still being
     imported: exit 0 and no traceback (rclpy's handler shuts the context down, then raises
     KeyboardInterrupt wherever the main thread is)."""
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        # Started with SIGINT ignored (a shell's background job passes that on): SIGINT is
+        # how roslaunch, ros2 launch and racc stop a node, so it stops this one too.
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         if command == "demo-node":
             return _demo_node(args, ros, body)

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import signal
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -134,3 +135,13 @@ def short_pioneer_run(tmp_path: Path) -> Path:
     pioneer = Path(__file__).resolve().parent.parent / "models" / "pioneer.ram"
     assert main(["synth", str(pioneer), "-o", str(run), "--duration", "20", "-q"]) == 0
     return run
+
+
+@pytest.fixture(autouse=True)
+def sigint_stops_children() -> None:
+    """Every process a test starts gets SIGINT as a robot's would: its default.  A process
+    started with SIGINT ignored (a background job of a shell) passes that on to every
+    child, and a node that ignores SIGINT neither stops politely nor ends cleanly, which
+    tests of racc's stops would read as racc's fault."""
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
