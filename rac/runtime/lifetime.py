@@ -122,28 +122,45 @@ def _resolved(path: str, cwd: str | None) -> str:
 def _holds_launch(proc: psutil.Process, kind: str, cmdline: Sequence[str], target: str) -> int:
     """How surely the process runs the launch file ``target``: 2 its command line names the
     file (a path, resolved against its working directory), 1 its name only, after a package
-    (``roslaunch PKG FILE``, ``ros2 launch PKG FILE``), 0 not at all."""
+    (``roslaunch PKG FILE``, ``ros2 launch PKG FILE``: the file is the package's, wherever
+    the process runs), 0 not at all."""
     name = os.path.basename(target)
-    candidates = [a for a in cmdline if os.path.basename(a) == name]
+    args = list(cmdline)
     if kind == "racc demo":
-        out = _demo_output(cmdline)
+        out = _demo_output(args)
         if out is None or name not in ("robot.launch", "robot.launch.xml"):
             return 0
-        candidates = [os.path.join(out, name)]
-    if not candidates:
+        return 2 if _resolved(os.path.join(out, name), _cwd(proc)) == target else 0
+    named = [i for i, a in enumerate(args) if os.path.basename(a) == name]
+    if not named:
         return 0
-    try:
-        cwd = proc.cwd()
-    except psutil.Error:
-        cwd = None
-    if any(_resolved(a, cwd) == target for a in candidates):
+    paths = [args[i] for i in named if not _after_package(args, i)]
+    if paths and any(_resolved(a, _cwd(proc)) == target for a in paths):
         return 2
-    if kind != "racc demo" and name in cmdline:
-        i = list(cmdline).index(name)
-        before = cmdline[i - 1] if i > 0 else ""
-        if before and not before.startswith("-") and os.path.basename(before) not in LAUNCHERS:
-            return 1
-    return 0
+    return 1 if len(paths) < len(named) else 0
+
+
+def _after_package(args: Sequence[str], i: int) -> bool:
+    """Whether ``args[i]``, a bare file name, follows a package name (``PKG FILE``)."""
+    if i == 0 or "/" in args[i]:
+        return False
+    before = args[i - 1]
+    return (
+        bool(before)
+        and not before.startswith("-")
+        and (
+            "/" not in before
+            and os.path.basename(before) not in LAUNCHERS
+            and not before.endswith((".launch", ".xml", ".py", ".yaml"))
+        )
+    )
+
+
+def _cwd(proc: psutil.Process) -> str | None:
+    try:
+        return str(proc.cwd())
+    except psutil.Error:
+        return None
 
 
 def launch_process(launch_file: str | None) -> LaunchProcess | None:
