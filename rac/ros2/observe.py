@@ -238,14 +238,12 @@ def run_observe(
                 )
             if contested:
                 park(topic)
-            if unseen or unnamed_yet:
-                audit_soon()
-        elif unnamed_yet:
-            audit_soon()  # discovery names a robot's own endpoints within moments
-        else:
+        elif not unnamed_yet:
             vetted[topic] = same_type
             host.resume_topic(topic)
             unpark(topic)  # subscribes again, and judges the topic's publishers once more
+        if unseen or unnamed_yet:
+            audit_soon()  # discovery names a robot's own endpoints within moments
 
     def audit(now: float) -> None:
         """The graph's publishers of each observed topic against the model's."""
