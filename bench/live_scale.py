@@ -1,16 +1,23 @@
-"""racc's runtime at a real robot's size: live ROS 1 relay graphs of 10 to 200 nodes.
+"""racc's runtime at a real robot's size: live relay graphs of 10 to 200 nodes, ROS 1 or 2.
 
     .venv-ros1/bin/python bench/live_scale.py                         # 10, 50, 100, 200 relays
     .venv-ros1/bin/python bench/live_scale.py --sizes 100 --seconds 60 --repeats 3
     .venv-ros1/bin/python bench/live_scale.py --sizes 10 --learn 30   # also a learned model
     .venv-ros1/bin/python bench/live_scale.py --sizes 100 --statistics  # the robot with
                                                                       # /enable_statistics on
+    .venv-ros2/bin/python bench/live_scale.py --ros 2 --sizes 10,20   # rclpy relays
+    .venv-ros2/bin/python bench/live_scale.py --ros 2 --sizes 100 --divisor 10
 
 The graph (tests/ros1/relay_graph.py): Debian's C++ ``topic_tools/relay`` nodes in two
 chains, fed by ``rosbag play --loop`` of a Jackal's 50 Hz IMU and a PR2's 100 Hz joint
 states, and robot_state_publisher; the hand model says each topic's rate, each relay's
 output from its input and each node's limits.  A roscore on a free port; everything started
-is stopped by its process group.
+is stopped by its process group.  With ``--ros 2`` (tests/ros2/rclpy_graph.py) the same
+shape of rclpy nodes, a process each, in a ROS domain of the run: an rclpy relay costs
+about ten times a C++ one (rclpy's executor: 4-9 % of a core at 50-100 Hz here), so that on
+a 2-core machine the robot alone fills the cores from about 20 relays at the recordings'
+rates; ``--divisor N`` has the players publish every N-th message and the model expect
+rates N times lower.
 
 Per size and model: the robot is launched, then racc's runtime (``observers.launch``);
 once every observation is ok, CPU and memory are read from each process's own counters
@@ -32,9 +39,12 @@ import os
 import re
 import signal
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -42,8 +52,11 @@ import psutil
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests" / "ros1"))
+sys.path.insert(0, str(ROOT / "tests" / "ros2"))
 
+import rclpy_graph  # noqa: E402
 import relay_graph  # noqa: E402
+from rclpy_graph import Graph2  # noqa: E402
 from real_graph import Graph, data_dir, learn_model, real_graph, stop_robot_and_runtime  # noqa: E402
 from soak_support import (  # noqa: E402
     all_ok_since,
@@ -84,6 +97,7 @@ class Figures:
     first_plan: str = ""
     load_after: float = 0.0
     atoms: int = 0
+    why: list[str] = field(default_factory=list)  # the healthy period's plans, episodes, flips
 
 
 def processes(root: int) -> list[psutil.Process]:
@@ -126,24 +140,65 @@ def racc_name(proc: psutil.Process) -> str:
     except psutil.Error:
         return "?"
     for name in ("observe", "engine", "repairer", "board_client"):
-        if f"/racc/scripts/{name}" in cmd or f" {name} " in cmd:
+        if any(f"/racc/{d}{name}" in cmd for d in ("scripts/", "")) or f" {name} " in cmd:
             return name
     return cmd[:40]
 
 
-def measure(graph: Graph, relays: int, model: str, seconds: float) -> Figures:
+class Run:
+    """The robot and racc's runtime of one measurement, on either ROS version."""
+
+    def __init__(self, graph: Graph | Graph2) -> None:
+        self.graph = graph
+        self.robot: list[subprocess.Popen[bytes]] = []
+        self.runtime: list[subprocess.Popen[bytes]] = []
+
+    def start_robot(self) -> None:
+        graph = self.graph
+        self.robot = graph.start_robot() if isinstance(graph, Graph2) else [graph.start_robot()]
+
+    def start_runtime(self) -> None:
+        graph = self.graph
+        if isinstance(graph, Graph2):
+            self.runtime = graph.start_runtime()
+        else:
+            self.runtime = [graph.start_runtime()]
+
+    def nodes(self, relays: int) -> list[str]:
+        if isinstance(self.graph, Graph2):
+            return rclpy_graph.nodes(relays)
+        return relay_graph.nodes(relays)
+
+    def robot_processes(self) -> list[psutil.Process]:
+        if isinstance(self.graph, Graph2):
+            return self.graph.robot_processes()
+        return processes(self.robot[0].pid)
+
+    def racc_processes(self) -> list[psutil.Process]:
+        if isinstance(self.graph, Graph2):
+            return self.graph.runtime_processes()
+        return processes(self.runtime[0].pid)
+
+    def stop(self) -> None:
+        if isinstance(self.graph, Graph2):
+            self.graph.stop_robot_and_runtime(self.robot)
+        else:
+            stop_robot_and_runtime(self.graph, *self.robot, *self.runtime)
+
+
+def measure(graph: Graph | Graph2, relays: int, model: str, seconds: float) -> Figures:
     figures = Figures(relays, model, os.getloadavg()[0], atoms=graph.atoms)
     launched = time.time()
-    robot = graph.start_robot()
-    runtime = None
+    run = Run(graph)
+    run.start_robot()
     try:
-        if not graph.wait_nodes(tuple(relay_graph.nodes(relays)), 30 + relays):
+        if not graph.wait_nodes(tuple(run.nodes(relays)), 30 + relays):
             progress("not every node of the robot registered; measuring all the same")
-        runtime = graph.start_runtime()
+        run.start_runtime()
         ok = graph.watch.wait(all_ok_since(graph.watch, launched, graph.atoms), 60 + relays / 2)
         figures.settled = None if ok is None else ok - launched
         time.sleep(5.0)
-        robot_procs, racc_procs = processes(robot.pid), processes(runtime.pid)
+        robot_procs, racc_procs = run.robot_processes(), run.racc_processes()
         robot_before, racc_before = cpu_seconds(robot_procs), cpu_seconds(racc_procs)
         start = time.time()
         progress(f"{relays} relays, {model}: healthy for {seconds:g} s")
@@ -154,20 +209,26 @@ def measure(graph: Graph, relays: int, model: str, seconds: float) -> Figures:
         for proc in racc_procs:
             if proc.pid in racc_before:
                 figures.racc_each[racc_name(proc)] = usage([proc], racc_before, end - start)
-        figures.plans = len([r for r in plans(graph.watch, start, end) if r[1] == "plan"])
-        figures.episodes = len(episodes(graph.watch, start, end))
-        figures.flipped = sum(flips(graph.watch, start, end).values())
+        made = [r for r in plans(graph.watch, start, end) if r[1] == "plan"]
+        figures.plans = len(made)
+        found = episodes(graph.watch, start, end)
+        figures.episodes = len(found)
+        flipped = flips(graph.watch, start, end)
+        figures.flipped = sum(flipped.values())
+        figures.why = [f"plan at +{r[0] - start:.1f} s: {r[4]}" for r in made]
+        figures.why += [f"episode at +{t - start:.1f} s: {' | '.join(d)}" for t, d in found]
+        figures.why += [f"turned negative {n}x: {m}" for m, n in sorted(flipped.items())]
         with graph.watch.lock:
             reports = [m for t, n, _, m in graph.watch.statuses if n.endswith(": load")]
         figures.host_report = reports[-1] if reports else "(no report)"
         crash(graph, relays, figures)
     finally:
-        stop_robot_and_runtime(graph, robot, *([runtime] if runtime is not None else []))
+        run.stop()
     figures.load_after = os.getloadavg()[0]
     return figures
 
 
-def crash(graph: Graph, relays: int, figures: Figures) -> None:
+def crash(graph: Graph | Graph2, relays: int, figures: Figures) -> None:
     """``kill -9`` of the relay in the middle of the IMU chain."""
     target = f"imu_relay_{max(1, relay_graph.chain_length(relays) // 2)}"
     pid = graph.node_pid(target)
@@ -216,6 +277,8 @@ def report(all_figures: list[Figures], argv: list[str]) -> None:
         for name, each in sorted(f.racc_each.items()):
             print(f"{'':>14} racc {name:<10} {show(each)}")
         print(f"{'':>14} observer host: {f.host_report}")
+        for line in f.why:
+            print(f"{'':>14} {line}")
     detected = [f.detected for f in all_figures if f.detected is not None]
     if detected:
         print(f"\ncrash to diagnosis: median {statistics.median(detected):.2f} s")
@@ -224,6 +287,18 @@ def report(all_figures: list[Figures], argv: list[str]) -> None:
 
 
 QUIET = False
+
+
+@contextmanager
+def graph_of(args: argparse.Namespace, tmp: Path, relays: int) -> Iterator[Graph | Graph2]:
+    """The graph of ``relays`` relays on the ROS version asked for."""
+    if args.ros == 2:
+        with rclpy_graph.rclpy_graph(tmp, relays, data_dir(), args.divisor) as graph2:
+            yield graph2
+        return
+    launch, model = relay_graph.write(tmp, relays, data_dir(), args.statistics)
+    with real_graph(tmp, model, launch) as graph:
+        yield graph
 
 
 def progress(message: str) -> None:
@@ -253,23 +328,42 @@ def main() -> None:
         action="store_true",
         help="launch the robot with roscpp's topic statistics on (default: off)",
     )
+    parser.add_argument(
+        "--ros", type=int, choices=(1, 2), default=1, help="ROS version (default 1)"
+    )
+    parser.add_argument(
+        "--divisor",
+        type=int,
+        default=1,
+        metavar="N",
+        help="ROS 2: the players publish every N-th message, the model's rates N times "
+        "lower (default 1)",
+    )
     parser.add_argument("-q", action="store_true", help="no progress lines (default: shown)")
     args = parser.parse_args()
     QUIET = args.q or not sys.stderr.isatty()
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(1))
     results: list[Figures] = []
+    if args.ros == 2 and args.statistics:
+        parser.error("--statistics is roscpp's (ROS 1)")
+    if args.divisor < 1 or 100 % args.divisor:
+        parser.error("--divisor must divide 100 (the joint states' rate): 1, 2, 5, 10, ...")
     try:
         for relays in [int(x) for x in args.sizes.split(",") if x]:
-            with tempfile.TemporaryDirectory(prefix=f"racc_scale{relays}_") as tmp:
-                launch, model = relay_graph.write(Path(tmp), relays, data_dir(), args.statistics)
-                with real_graph(Path(tmp), model, launch) as graph:
-                    for _ in range(args.repeats):
-                        results.append(measure(graph, relays, "hand", args.seconds))
-                    if args.learn:
-                        progress(f"{relays} relays: racc record {args.learn} s, racc learn")
+            with (
+                tempfile.TemporaryDirectory(prefix=f"racc_scale{relays}_") as tmp,
+                graph_of(args, Path(tmp), relays) as graph,
+            ):
+                for _ in range(args.repeats):
+                    results.append(measure(graph, relays, "hand", args.seconds))
+                if args.learn:
+                    progress(f"{relays} relays: racc record {args.learn} s, racc learn")
+                    if isinstance(graph, Graph2):
+                        learned = rclpy_graph.learn_model(graph, args.learn, progress)
+                    else:
                         learned = learn_model(graph, args.learn, progress)
-                        graph.use_model(learned, "learned_build")
-                        results.append(measure(graph, relays, "learned", args.seconds))
+                    graph.use_model(learned, "learned_build")
+                    results.append(measure(graph, relays, "learned", args.seconds))
     finally:
         report(results, sys.argv[1:])
 

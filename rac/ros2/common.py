@@ -14,11 +14,13 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
+import psutil
+
 from rac.errors import Diagnostic, RacError
 from rac.ros2.args import ROS_ARGS
 from rac.runtime.bus import Texts
 from rac.runtime.placement import Found, prove_by_cmdline
-from rac.runtime.procs import innermost, node_processes, process_table
+from rac.runtime.procs import ProcessTable, index_by_node, innermost, node_key
 from rac.runtime.status import Row, rows_from_array
 from rac.runtime.trust import Gate, Trust, guard_rows, guard_text
 
@@ -282,18 +284,30 @@ class PidResolver:
     name appears.
     """
 
-    def __init__(self, graph: Callable[[], set[str]], table_s: float = 0.25) -> None:
+    def __init__(
+        self, graph: Callable[[], set[str]], table_s: float = 1.0, missing_s: float = 0.25
+    ) -> None:
         self.graph = graph
         self.local: set[str] = set()
-        self.table_s = table_s  # one scan of the process table serves every node
-        self._table: list[Any] = []
+        # One scan of the process table serves every node for table_s (each running node
+        # is resolved again every second), and a node without a process in it for
+        # missing_s: a node (re)started since is found that soon.
+        self.table_s, self.missing_s = table_s, missing_s
+        self._table = ProcessTable()
+        self._index: dict[tuple[str, str], list[Any]] = {}
         self._scanned = float("-inf")
 
     def __call__(self, node: str) -> Found | None:
         now = time.monotonic()
-        if now - self._scanned >= self.table_s:
-            self._table, self._scanned = process_table(), now
-        proc = innermost(node_processes(node, self._table))
+        key = node_key(node)
+        age = now - self._scanned
+        if age >= self.table_s or (age >= self.missing_s and not self._live(key)):
+            self._index, self._scanned = index_by_node(self._table.scan()), now
+        procs = self._index.get(key, [])
+        for gone in [p for p in procs if not _alive(p)]:
+            procs.remove(gone)
+            self._table.forget(gone)  # its pid, if reused, is read again
+        proc = innermost(procs)
         found = prove_by_cmdline(int(proc.pid)) if proc is not None else None
         if found is not None and found.pid is not None:
             self.local.add(node)
@@ -303,3 +317,14 @@ class PidResolver:
         if node.strip("/") not in self.graph():
             return None
         return found or Found(None, "in the graph without a process here: another machine")
+
+    def _live(self, key: tuple[str, str]) -> bool:
+        return any(_alive(p) for p in self._index.get(key, ()))
+
+
+def _alive(proc: Any) -> bool:
+    """A process of the table still runs (the table may be a second old)."""
+    try:
+        return bool(proc.is_running()) and proc.status() != psutil.STATUS_ZOMBIE
+    except psutil.Error:
+        return False

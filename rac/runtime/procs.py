@@ -22,6 +22,7 @@ remapping on its command line (:func:`node_processes`), which ``ros2 launch``, `
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import time
@@ -214,7 +215,11 @@ class ProcessProbe:
         out: list[Event] = []
         booted_s = self.since_boot()
         for node in self.nodes:
-            out += self._sample_node(node, t, booted_s, with_properties)
+            proc = self._procs.get(node)
+            # One read of /proc/PID/stat serves the liveness check and the cpu time (at
+            # 100 nodes ten times a second, the reads are most of the host's own cost).
+            with proc.oneshot() if proc is not None else contextlib.nullcontext():
+                out += self._sample_node(node, t, booted_s, with_properties)
         return out
 
     def _sample_node(
@@ -275,6 +280,77 @@ def node_processes(
         if remaps_node(proc.info["cmdline"], base, ns):
             found.append(proc)
     return sorted(found, key=lambda p: (p.info["create_time"], p.pid))
+
+
+YOUNG_S = 5.0  # a process this young may still exec (a fork's command line is its parent's)
+
+
+class ProcessTable:
+    """:func:`process_table`, kept between scans: a scan lists ``/proc`` and reads the
+    command line only of processes it has not seen (and of young ones, which may exec),
+    rather than three files of every process of the machine (at 100 nodes, a scan a
+    second was a fifth of the observer host's own cost).  A listed process may have ended
+    or been replaced since (a reused pid): the caller checks the one it uses
+    (``is_running``), and :meth:`forget` drops it."""
+
+    def __init__(self, clock: Callable[[], float] = time.time) -> None:
+        self.clock = clock
+        self._known: dict[int, psutil.Process] = {}
+
+    def scan(self) -> list[psutil.Process]:
+        now = self.clock()
+        try:
+            pids = set(psutil.pids())
+        except OSError:
+            return list(self._known.values())
+        for pid in [p for p in self._known if p not in pids]:
+            del self._known[pid]
+        out = []
+        for pid in pids:
+            proc = self._known.get(pid)
+            if proc is None or now - proc.info["create_time"] < YOUNG_S:
+                proc = self._read(pid)
+                if proc is None:
+                    continue
+                self._known[pid] = proc
+            if proc.info["cmdline"] and any(a.startswith("__node:=") for a in proc.info["cmdline"]):
+                out.append(proc)
+        return out
+
+    def forget(self, proc: psutil.Process) -> None:
+        if self._known.get(proc.pid) is proc:
+            del self._known[proc.pid]
+
+    @staticmethod
+    def _read(pid: int) -> psutil.Process | None:
+        try:
+            proc = psutil.Process(pid)
+            proc.info = {"cmdline": proc.cmdline(), "create_time": proc.create_time()}
+        except psutil.Error:
+            return None
+        return proc
+
+
+def index_by_node(table: Sequence[psutil.Process]) -> dict[tuple[str, str], list[psutil.Process]]:
+    """A :func:`process_table` by the node each command line names: ("name", "/ns") -> its
+    processes, oldest first (as :func:`node_processes` finds them, for every node at once)."""
+    index: dict[tuple[str, str], list[psutil.Process]] = {}
+    for proc in table:
+        cmdline = proc.info["cmdline"]
+        spaces = [a.partition(":=")[2] for a in cmdline if a.startswith("__ns:=")]
+        ns = (spaces[-1] if spaces else "/").rstrip("/") or "/"
+        for arg in cmdline:
+            if arg.startswith("__node:="):
+                index.setdefault((arg.partition(":=")[2], ns), []).append(proc)
+    for procs in index.values():
+        procs.sort(key=lambda p: (p.info["create_time"], p.pid))
+    return index
+
+
+def node_key(node: str) -> tuple[str, str]:
+    """("name", "/ns") of a node "ns/name" or "name", as :func:`index_by_node` keys it."""
+    ns, _, base = node.strip("/").rpartition("/")
+    return base, ("/" + ns.strip("/")).rstrip("/") or "/"
 
 
 def process_table() -> list[psutil.Process]:

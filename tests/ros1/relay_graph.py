@@ -18,6 +18,7 @@ the header stamps at a chain's end are the player's.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -105,42 +106,59 @@ def launch_text(relays: int, data: Path, statistics: bool = False) -> str:
     return "\n".join(lines)
 
 
-def model_text(relays: int) -> str:
+@dataclass(frozen=True)
+class ModelOptions:
+    """How the hand model differs on ROS 2 (tests/ros2/rclpy_graph.py): no
+    robot_state_publisher, every rate divided by ``divisor`` (the players publish every
+    n-th message), and the memory of Python nodes."""
+
+    state_publisher: bool = True
+    divisor: int = 1
+    player_mem_mb: int = 128
+    relay_mem_mb: int = 64
+
+
+def model_text(relays: int, options: ModelOptions = ModelOptions()) -> str:
     """The hand model of the graph: rates, outputs from inputs, limits."""
     k = chain_length(relays)
+    d = options.divisor
     out = [
-        f"# {relays} topic_tools relays in two chains of {k} (tests/ros1/relay_graph.py).",
+        f"# {relays} relays in two chains of {k} (tests/ros1/relay_graph.py).",
         f"robot relays_{relays}",
         "",
-        "topic /imu/data : sensor_msgs/Imu @ 50 Hz",
-        f"topic {ODOM} : nav_msgs/Odometry @ 50 Hz",
-        "topic /joint_states : sensor_msgs/JointState @ 100 Hz",
-        "topic /tf : tf2_msgs/TFMessage @ 65 Hz +- 25 Hz",
+        f"topic /imu/data : sensor_msgs/Imu @ {50 // d} Hz",
+        f"topic {ODOM} : nav_msgs/Odometry @ {50 // d} Hz",
+        f"topic /joint_states : sensor_msgs/JointState @ {100 // d} Hz",
     ]
+    if options.state_publisher:
+        out.append("topic /tf : tf2_msgs/TFMessage @ 65 Hz +- 25 Hz")
     for _, _, prefix, rate, kind in CHAINS:
-        out += [f"topic {prefix}_{i} : {kind} @ {rate} Hz" for i in range(1, k + 1)]
+        out += [f"topic {prefix}_{i} : {kind} @ {rate // d} Hz" for i in range(1, k + 1)]
     out += [
         "",
         "node jackal_player {",
         f"  publishes /imu/data, {ODOM}",
-        "  limits cpu 40 %, mem 128 MB",
+        f"  limits cpu 40 %, mem {options.player_mem_mb} MB",
         "}",
         "node pr2_player {",
         "  publishes /joint_states",
-        "  limits cpu 40 %, mem 128 MB",
-        "}",
-        "node robot_state_publisher {",
-        "  subscribes /joint_states",
-        "  publishes /tf from /joint_states",
-        "  limits cpu 40 %, mem 128 MB",
+        f"  limits cpu 40 %, mem {options.player_mem_mb} MB",
         "}",
     ]
+    if options.state_publisher:
+        out += [
+            "node robot_state_publisher {",
+            "  subscribes /joint_states",
+            "  publishes /tf from /joint_states",
+            "  limits cpu 40 %, mem 128 MB",
+            "}",
+        ]
     for relay, source, target in chain_topics(relays):
         out += [
             f"node {relay} {{",
             f"  subscribes {source}",
             f"  publishes {target} from {source}",
-            "  limits cpu 30 %, mem 64 MB",
+            f"  limits cpu 30 %, mem {options.relay_mem_mb} MB",
             "}",
         ]
     return "\n".join(out) + "\n"

@@ -14,6 +14,9 @@ from rac.observe import NodeSample, PropertySample
 from rac.runtime.procs import (
     DEFAULT_SETTLE_S,
     ProcessProbe,
+    index_by_node,
+    node_key,
+    node_processes,
     seconds_since_boot,
     started_since_boot,
 )
@@ -98,3 +101,64 @@ def test_a_process_age_is_exact_to_the_tick() -> None:
         proc.kill()
         proc.wait(10)
     assert before - 0.02 <= started <= seconds_since_boot() + 0.02
+
+
+class _Listed:
+    """A process table's entry, as psutil.process_iter(attrs) gives it."""
+
+    def __init__(self, pid: int, cmdline: list[str], created: float) -> None:
+        self.pid = pid
+        self.info = {"cmdline": cmdline, "create_time": created, "status": "sleeping"}
+
+
+def test_the_table_indexed_by_node_finds_what_a_search_of_it_finds() -> None:
+    """The observer host on ROS 2 looks a node up in an index of the process table built
+    once per scan; it must find the processes a search of the table for that node does."""
+    table = [
+        _Listed(10, ["relay", "--ros-args", "-r", "__node:=relay_1"], 5.0),
+        _Listed(11, ["python3", "talker", "--ros-args", "-r", "__node:=talker"], 3.0),
+        _Listed(12, ["ros2", "run", "p", "talker", "--ros-args", "-r", "__node:=talker"], 2.0),
+        _Listed(13, ["cam", "--ros-args", "-r", "__node:=cam", "-r", "__ns:=/front/"], 1.0),
+        _Listed(
+            14,
+            ["cam", "--ros-args", "-r", "__ns:=/a", "-r", "__ns:=/rear", "-r", "__node:=cam"],
+            1.0,
+        ),
+        _Listed(15, ["relay", "-r", "__node:=relay_10"], 5.0),
+    ]
+    index = index_by_node(table)  # type: ignore[arg-type]
+    for node in (
+        "relay_1",
+        "relay_10",
+        "talker",
+        "/talker",
+        "front/cam",
+        "/rear/cam/",
+        "cam",
+        "a/cam",
+        "nobody",
+    ):
+        searched = [p.pid for p in node_processes(node, table)]  # type: ignore[arg-type]
+        indexed = [p.pid for p in index.get(node_key(node), [])]
+        assert indexed == searched, node
+    assert [p.pid for p in index[node_key("talker")]] == [12, 11]  # oldest first
+
+
+def test_the_kept_process_table_sees_a_node_start_and_end() -> None:
+    from rac.runtime.procs import ProcessTable
+
+    table = ProcessTable()
+    name = f"racc_test_table_{time.monotonic_ns()}"
+    assert not any(f"__node:={name}" in p.info["cmdline"] for p in table.scan())
+    args = [sys.executable, "-S", "-c", "import time; time.sleep(60)", "--ros-args", "-r"]
+    proc = subprocess.Popen([*args, f"__node:={name}"])
+    try:
+        deadline = time.time() + 10
+        found: list[int] = []
+        while not found and time.time() < deadline:
+            found = [p.pid for p in table.scan() if f"__node:={name}" in p.info["cmdline"]]
+        assert found == [proc.pid]
+    finally:
+        proc.kill()
+        proc.wait(10)
+    assert not any(f"__node:={name}" in p.info["cmdline"] for p in table.scan())
