@@ -303,6 +303,13 @@ def test_a_node_that_cannot_start_is_rac111(tmp_path: Path) -> None:
 # -- finding the robot's launch process ---------------------------------------------------------
 
 
+def _launch_name() -> str:
+    """A launch file name of this run alone: a ``roslaunch PKG FILE`` is found by the file's
+    name, so another run's ``roslaunch my_robot robot.launch`` on the machine (the test below,
+    in a parallel run) would be this test's robot."""
+    return f"robot_{os.getpid()}_{time.monotonic_ns()}.launch"
+
+
 def _launcher(tmp: Path, name: str, args: Sequence[str], started: Started) -> int:
     exe = tmp / name
     exe.write_text(f"#!{sys.executable}\nimport time\ntime.sleep(120)\n", encoding="utf-8")
@@ -313,19 +320,20 @@ def _launcher(tmp: Path, name: str, args: Sequence[str], started: Started) -> in
 
 
 def test_the_launch_process_is_found_by_its_launch_file(started: Started, tmp_path: Path) -> None:
-    (tmp_path / "robot.launch").write_text("<launch/>", encoding="utf-8")
+    name = _launch_name()
+    (tmp_path / name).write_text("<launch/>", encoding="utf-8")
     (tmp_path / "other").mkdir()
-    (tmp_path / "other" / "robot.launch").write_text("<launch/>", encoding="utf-8")
-    racc = _launcher(tmp_path, "racc", ["repairer", "m.yaml", "--launch", "robot.launch"], started)
-    other = _launcher(tmp_path, "roslaunch", ["other/robot.launch"], started)
+    (tmp_path / "other" / name).write_text("<launch/>", encoding="utf-8")
+    racc = _launcher(tmp_path, "racc", ["repairer", "m.yaml", "--launch", name], started)
+    other = _launcher(tmp_path, "roslaunch", [f"other/{name}"], started)
     found: list[LaunchProcess | None] = [None]
 
     def seen() -> bool:
-        found[0] = launch_process(str(tmp_path / "robot.launch"))
+        found[0] = launch_process(str(tmp_path / name))
         return found[0] is not None
 
     assert _wait(seen, 1.0) is None  # racc's own --launch and another file: not the robot's
-    ours = _launcher(tmp_path, "roslaunch", ["--wait", "robot.launch"], started)  # relative
+    ours = _launcher(tmp_path, "roslaunch", ["--wait", name], started)  # relative
     assert _wait(seen, 10) is not None
     assert found[0] is not None and found[0].pid == ours and "roslaunch of" in found[0].what
     assert found[0].start == process_start(ours)
@@ -354,9 +362,10 @@ def test_ros2_launch_and_racc_demo_are_launch_processes(started: Started, tmp_pa
 
 
 def test_roslaunch_pkg_file_is_found_by_the_files_name(started: Started, tmp_path: Path) -> None:
-    (tmp_path / "robot.launch").write_text("<launch/>", encoding="utf-8")
-    by_package = _launcher(tmp_path, "roslaunch", ["my_robot", "robot.launch"], started)
-    target = str(tmp_path / "robot.launch")
+    name = _launch_name()
+    (tmp_path / name).write_text("<launch/>", encoding="utf-8")
+    by_package = _launcher(tmp_path, "roslaunch", ["my_robot", name], started)
+    target = str(tmp_path / name)
     found = _wait(lambda: (launch_process(target) or LaunchProcess(0, 0, "")).pid == by_package, 10)
     assert found is not None
     # A process that names the file's path wins over one that names the package's file.
