@@ -26,8 +26,10 @@ arrived: roscpp counts a message its own queue dropped after arrival in both
 ``delivered_msgs`` and ``dropped_msgs``, rospy counts gaps in ``header.seq`` in the latter,
 so only ``delivered_msgs`` counts messages, and it alone is fed.  The host feeds a report's
 messages spread evenly over its window's length, each the same time D after it would have
-come (the report came at the window's end): D is the longest of the source's recent
-windows and :data:`PACE_LAG_S`.  The frequency observer then sees the topic at the rate the
+come (the report came at the window's end), from where the last report's ended: D is the
+longest window of the source and :data:`PACE_LAG_S`, and grows slowly when a longer window
+comes (a moving D would stretch or squeeze a window, which the frequency observer would read
+as a slower or a faster topic).  The frequency observer then sees the topic at the rate the
 subscriber saw, as a steady stream D late, rather than a clump a second (a silence of a
 second, every second).  It has no header stamps nor sequence numbers of these messages: it
 times them by their (paced) arrival.  The lag is what lets the host take over a topic whose
@@ -85,6 +87,7 @@ RETURN_REPORTS = 3  # reports in a row, on time, before a topic is taken from th
 MAX_WINDOW_S = 2.5
 MAX_WINDOW_PERIODS = 2.5
 RECENT_WINDOWS = 3  # a source's due time: the longest of its last windows
+DELAY_GROWTH = 0.02  # the feeding delay grows by this share of a window at most
 CONTINUES_S = 1e-3  # a window that starts this close to where the last one stopped continues it
 
 
@@ -231,6 +234,7 @@ class _Heard:
     last: float = -math.inf  # host time of its last usable report
     windows: deque[float] = field(default_factory=lambda: deque(maxlen=RECENT_WINDOWS))
     streak: int = 0  # usable reports in a row, each on time
+    longest: float = 0.0  # the longest window it ever reported: the feeding delay's part
     stops: dict[str, float] = field(default_factory=dict)  # publisher -> last window_stop
 
     @property
@@ -252,6 +256,7 @@ class _State:
     # Publisher -> (window_stop, feeding end) of the last report of it that was fed: the
     # next one that continues its window is fed from where it ended.
     fed: dict[str, tuple[float, float]] = field(default_factory=dict)
+    delay: float = 0.0  # how long after they came its reported messages are fed (0: unset)
     # Which messages count now: the host's own (it subscribed the topic), the reported
     # ones; both while one hands over to the other (module docstring).
     own: bool = False
@@ -345,6 +350,7 @@ class StatisticsFeed:
             heard.streak = heard.streak + 1 if now <= heard.due() else 1
             heard.last = now
             heard.windows.append(report.span)
+            heard.longest = max(heard.longest, report.span)
             self._down.discard(sub)
             if last_stop is None or abs(report.window_start - last_stop) > CONTINUES_S:
                 heard.streak = 0  # a connection's first window: its count does not fit it
@@ -357,7 +363,13 @@ class StatisticsFeed:
                 # Fed evenly over its window's length, ending D after it came; from where the
                 # last one ended if it continues that one (a late report's messages then
                 # come at once, as late messages would).
-                end = now + heard.window + PACE_LAG_S
+                # A delay that moved with each window would stretch or squeeze the window
+                # between (clumps make them 1-1.4 s): it only grows, by DELAY_GROWTH of a
+                # window at a time, towards the longest window and the lag.
+                target = heard.longest + PACE_LAG_S
+                grown = state.delay + DELAY_GROWTH * report.span if state.delay else target
+                state.delay = max(state.delay, min(target, grown))
+                end = now + state.delay
                 last = state.fed.get(pub)
                 start = end - report.span
                 if last is not None and abs(report.window_start - last[0]) <= CONTINUES_S:
@@ -371,6 +383,7 @@ class StatisticsFeed:
         was = state.mode
         state.mode, state.source, state.paced = REPORTED, sub, True
         state.fed.clear()
+        state.delay = 0.0
         self._lines.append(
             f"t={self.wall(now):.3f} {state.topic.topic}: from /statistics ({sub}'s reports)"
         )
@@ -424,6 +437,7 @@ class StatisticsFeed:
             if state.mode == DIRECT and state.paced:
                 state.paced, state.source = False, None
                 state.fed.clear()
+                state.delay = 0.0
                 dropped = self._pacer.cancel(topic)
                 self._lines.append(
                     f"t={self.wall(now):.3f} {topic}: its own messages arrive, "

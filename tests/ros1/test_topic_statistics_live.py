@@ -149,9 +149,11 @@ def negative_since(graph: Graph, after: float, literal: str) -> list[float]:
 
 def test_the_host_receives_no_topic_it_takes_from_statistics(running: Running) -> None:
     graph = running.graph
+    # A topic whose reports came late (a loaded machine) is received meanwhile: each is
+    # taken from its reports again after three on time.
+    none = wait_for(lambda: not any(host_subscribes(graph, t) for t in REPORTED), 20.0, 0.5)
     subs = subscribers(graph)
-    for topic in REPORTED:
-        assert HOST not in subs.get(topic, set()), f"the host subscribes {topic}: {subs}"
+    assert none is not None, f"the host subscribes some of {REPORTED}: {subs}"
     for topic in RECEIVED:
         assert HOST in subs.get(topic, set()), f"the host does not subscribe {topic}: {subs}"
     at = time.time()
