@@ -5,6 +5,8 @@
     .venv-ros1/bin/python bench/live_scale.py --sizes 10 --learn 30   # also a learned model
     .venv-ros1/bin/python bench/live_scale.py --sizes 100 --statistics  # the robot with
                                                                       # /enable_statistics on
+    .venv-ros1/bin/python bench/live_scale.py --sizes 100 --use-statistics  # and racc
+                                                 # taking topics from them (statistics:=auto)
 
 The graph (tests/ros1/relay_graph.py): Debian's C++ ``topic_tools/relay`` nodes in two
 chains, fed by ``rosbag play --loop`` of a Jackal's 50 Hz IMU and a PR2's 100 Hz joint
@@ -139,7 +141,7 @@ def measure(graph: Graph, relays: int, model: str, seconds: float) -> Figures:
     try:
         if not graph.wait_nodes(tuple(relay_graph.nodes(relays)), 30 + relays):
             progress("not every node of the robot registered; measuring all the same")
-        runtime = graph.start_runtime()
+        runtime = graph.start_runtime("runtime.log", None, *RUNTIME_ARGS)
         ok = graph.watch.wait(all_ok_since(graph.watch, launched, graph.atoms), 60 + relays / 2)
         figures.settled = None if ok is None else ok - launched
         time.sleep(5.0)
@@ -224,6 +226,7 @@ def report(all_figures: list[Figures], argv: list[str]) -> None:
 
 
 QUIET = False
+RUNTIME_ARGS: list[str] = []  # observers.launch's arguments
 
 
 def progress(message: str) -> None:
@@ -253,9 +256,18 @@ def main() -> None:
         action="store_true",
         help="launch the robot with roscpp's topic statistics on (default: off)",
     )
+    parser.add_argument(
+        "--use-statistics",
+        action="store_true",
+        help="--statistics, and racc's observer host takes the topics it can from them "
+        "(observers.launch statistics:=auto; default: it receives every topic)",
+    )
     parser.add_argument("-q", action="store_true", help="no progress lines (default: shown)")
     args = parser.parse_args()
     QUIET = args.q or not sys.stderr.isatty()
+    if args.use_statistics:
+        args.statistics = True
+        RUNTIME_ARGS.append("statistics:=auto")
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(1))
     results: list[Figures] = []
     try:

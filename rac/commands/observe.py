@@ -74,11 +74,13 @@ def register(sub: Any) -> None:
     parser.add_argument(
         "--statistics",
         choices=("auto", "off"),
-        default="auto",
+        default="off",
         help="ROS 1: take a topic watched only for its rate and liveness from the topic "
         "statistics its subscribers in the model publish on /statistics, rather than "
         "receive it (auto: when the robot's /enable_statistics is true at the start; off: "
-        "receive every topic; docs/runtime.md; default: auto)",
+        "receive every topic; docs/runtime.md says what it saves and what it costs: a "
+        "subscriber counts what arrived, so messages lost on the way read as a slower "
+        "publisher; default: off)",
     )
     add_secret_option(parser)
     add_robot_gone_option(parser)

@@ -14,7 +14,7 @@ it again only when the master announces the publisher again, and it is closed ag
 its first message.
 
 **Topics taken from their subscribers' statistics** (:mod:`rac.ros1.topic_statistics`).
-When the robot runs with ``/enable_statistics`` (and ``--statistics`` is not ``off``), a
+With ``--statistics auto``, when the robot runs with ``/enable_statistics``, a
 topic watched only for its rate and liveness, which a node of the model subscribes, is not
 subscribed here while a trusted subscriber's reports on ``/statistics`` say how many
 messages it carried; it is subscribed when none do.
@@ -31,7 +31,7 @@ from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec, T
 from rac.ros1.agent import start_agent
 from rac.ros1.common import Ros1Bus, header_type, node_liveness, node_uri
 from rac.ros1.tcpros import Batch, LeanReceiver, install
-from rac.ros1.topic_statistics import AUTO, StatisticsReceiver, statistics_on
+from rac.ros1.topic_statistics import OFF, StatisticsReceiver, statistics_on
 from rac.runtime.guardian import DEFAULT_GONE_S
 from rac.runtime.host import ObserverHost
 from rac.runtime.nodes import run_observer_node
@@ -125,7 +125,7 @@ def run_observe(
     key: bytes | None = None,
     sources: dict[str, TopicSource] | None = None,
     robot_gone_s: float = DEFAULT_GONE_S,
-    statistics: str = AUTO,
+    statistics: str = OFF,
 ) -> None:
     bus = Ros1Bus(name, key, OBSERVER)
     rospy = bus.rospy

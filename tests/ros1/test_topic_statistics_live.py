@@ -1,6 +1,7 @@
 """The observer host takes a topic from its subscribers' topic statistics (issue 36): a
 real roscore, six of Debian's C++ topic_tools relays in two chains of three, launched with
-``/enable_statistics`` on (tests/ros1/relay_graph.py), and racc's runtime.
+``/enable_statistics`` on (tests/ros1/relay_graph.py), and racc's runtime with
+``statistics:=auto``.
 
 - The host subscribes none of the topics that a relay of the model subscribes and that it
   watches only for their rate (the master's getSystemState says who subscribes what), and
@@ -92,7 +93,7 @@ def running(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Running]:
         launched = time.time()
         graph.start_robot()
         assert graph.wait_nodes(tuple(relay_graph.nodes(RELAYS)), 60), "the robot did not start"
-        graph.start_runtime()
+        graph.start_runtime("runtime.log", None, "statistics:=auto")
         ok = graph.watch.wait(all_ok_since(graph.watch, launched, graph.atoms), 60)
         assert ok is not None, "not every observation ok within 60 s"
         print(f"\nevery observation ok {ok - launched:.1f} s after the launch")
