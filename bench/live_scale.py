@@ -5,8 +5,10 @@
     .venv-ros1/bin/python bench/live_scale.py --sizes 10 --learn 30   # also a learned model
     .venv-ros1/bin/python bench/live_scale.py --sizes 100 --statistics  # the robot with
                                                                       # /enable_statistics on
+    .venv-ros1/bin/python bench/live_scale.py --sizes 100 --use-statistics  # and racc
+                                                 # taking topics from them (statistics:=auto)
     .venv-ros2/bin/python bench/live_scale.py --ros 2 --sizes 10,20   # rclpy relays
-    .venv-ros2/bin/python bench/live_scale.py --ros 2 --sizes 100 --divisor 10
+    .venv-ros2/bin/python bench/live_scale.py --ros 2 --sizes 50 --divisor 5
 
 The graph (tests/ros1/relay_graph.py): Debian's C++ ``topic_tools/relay`` nodes in two
 chains, fed by ``rosbag play --loop`` of a Jackal's 50 Hz IMU and a PR2's 100 Hz joint
@@ -162,7 +164,7 @@ class Run:
         if isinstance(graph, Graph2):
             self.runtime = graph.start_runtime()
         else:
-            self.runtime = [graph.start_runtime()]
+            self.runtime = [graph.start_runtime("runtime.log", None, *RUNTIME_ARGS)]
 
     def nodes(self, relays: int) -> list[str]:
         if isinstance(self.graph, Graph2):
@@ -287,6 +289,7 @@ def report(all_figures: list[Figures], argv: list[str]) -> None:
 
 
 QUIET = False
+RUNTIME_ARGS: list[str] = []  # observers.launch's arguments
 
 
 @contextmanager
@@ -329,6 +332,12 @@ def main() -> None:
         help="launch the robot with roscpp's topic statistics on (default: off)",
     )
     parser.add_argument(
+        "--use-statistics",
+        action="store_true",
+        help="--statistics, and racc's observer host takes the topics it can from them "
+        "(observers.launch statistics:=auto; default: it receives every topic)",
+    )
+    parser.add_argument(
         "--ros", type=int, choices=(1, 2), default=1, help="ROS version (default 1)"
     )
     parser.add_argument(
@@ -342,10 +351,13 @@ def main() -> None:
     parser.add_argument("-q", action="store_true", help="no progress lines (default: shown)")
     args = parser.parse_args()
     QUIET = args.q or not sys.stderr.isatty()
+    if args.use_statistics:
+        args.statistics = True
+        RUNTIME_ARGS.append("statistics:=auto")
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(1))
     results: list[Figures] = []
-    if args.ros == 2 and args.statistics:
-        parser.error("--statistics is roscpp's (ROS 1)")
+    if args.ros == 2 and (args.statistics or args.use_statistics):
+        parser.error("--statistics and --use-statistics are roscpp's (ROS 1)")
     if args.divisor < 1 or 100 % args.divisor:
         parser.error("--divisor must divide 100 (the joint states' rate): 1, 2, 5, 10, ...")
     try:

@@ -71,6 +71,17 @@ def register(sub: Any) -> None:
         help="with --machine: the launch file the agent restarts this machine's nodes from "
         "(default: none; nodes in containers are restarted by their container)",
     )
+    parser.add_argument(
+        "--statistics",
+        choices=("auto", "off"),
+        default="off",
+        help="ROS 1: take a topic watched only for its rate and liveness from the topic "
+        "statistics its subscribers in the model publish on /statistics, rather than "
+        "receive it (auto: when the robot's /enable_statistics is true at the start; off: "
+        "receive every topic; docs/runtime.md says what it saves and what it costs: a "
+        "subscriber counts what arrived, so messages lost on the way read as a slower "
+        "publisher; default: off)",
+    )
     add_secret_option(parser)
     add_robot_gone_option(parser)
     add_ros_option(parser)
@@ -97,19 +108,35 @@ def run(args: argparse.Namespace) -> int:
         )
     specs = on_machine(specs, machine)
     name = f"racc_observer_{machine}" if machine else "racc_observer"
+    key = load_secret(args.secret or None)
+    sources = dict(loaded.sources) if loaded.sources is not None else None
     if ros_version(args) == 2:
         from rac.ros2.observe import run_observe
-    else:
-        from rac.ros1.observe import run_observe
-    run_observe(
+
+        run_observe(
+            specs,
+            sample_hz=args.rate,
+            name=name,
+            machine=machine,
+            launch=args.launch or None,
+            settle_s=args.settle,
+            key=key,
+            sources=sources,
+            robot_gone_s=args.robot_gone,
+        )
+        return 0
+    from rac.ros1.observe import run_observe as run_ros1
+
+    run_ros1(
         specs,
         sample_hz=args.rate,
         name=name,
         machine=machine,
         launch=args.launch or None,
         settle_s=args.settle,
-        key=load_secret(args.secret or None),
-        sources=dict(loaded.sources) if loaded.sources is not None else None,
+        key=key,
+        sources=sources,
         robot_gone_s=args.robot_gone,
+        statistics=args.statistics,
     )
     return 0

@@ -204,9 +204,13 @@ def _sources(entries: object, bad: Callable[[str], RacError]) -> dict[str, Topic
         if not isinstance(entry, dict) or not isinstance(entry.get("topic"), str):
             raise bad(f"topics entry {i} needs a 'topic'")
         kind, publishers = entry.get("type"), entry.get("publishers") or []
+        subscribers = entry.get("subscribers") or []  # absent in an older racc's file
         if kind is not None and not isinstance(kind, str):
             raise bad(f"topic '{entry['topic']}': 'type' must be a string")
-        if not isinstance(publishers, list) or not all(isinstance(n, str) for n in publishers):
-            raise bad(f"topic '{entry['topic']}': 'publishers' must be a list of node names")
-        out[entry["topic"]] = TopicSource(entry["topic"], kind, tuple(publishers))
+        for key, nodes in (("publishers", publishers), ("subscribers", subscribers)):
+            if not isinstance(nodes, list) or not all(isinstance(n, str) for n in nodes):
+                raise bad(f"topic '{entry['topic']}': '{key}' must be a list of node names")
+        out[entry["topic"]] = TopicSource(
+            entry["topic"], kind, tuple(publishers), tuple(subscribers)
+        )
     return out

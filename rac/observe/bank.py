@@ -106,6 +106,24 @@ class ObserverBank:
         self._index()
         return [a for i in kept for a in self.observers[i].spec.atoms]
 
+    def retime(self, topic: str) -> int:
+        """The frequency observers of ``topic`` start afresh, their windows empty: its
+        messages come another way from now on (rac.runtime.topic_statistics), and the two
+        ways' arrivals in one window would be one window's mean of neither.  Their last
+        verdicts stand until they give one again (after their first window).  How many."""
+        found = [
+            i
+            for i in self._topics.get(topic, ())
+            if i not in self._suspended and isinstance(self.observers[i], GObs)
+        ]
+        fresh = build_all(self.observers[i].spec for i in found)
+        observers = list(self.observers)
+        for i, obs in zip(found, fresh, strict=True):
+            observers[i] = obs
+        self.observers = tuple(observers)
+        self._index()
+        return len(found)
+
     def suspended(self, topic: str) -> bool:
         return any(i in self._suspended for i in self._readers(topic))
 

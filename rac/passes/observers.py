@@ -42,11 +42,14 @@ class ObserverSpec:
 class TopicSource:
     """Where an observed topic's messages may come from: its type as the model declares it
     (None: any) and the nodes that publish it (empty: the model names none, any counts).
-    The observer host feeds its observers only from these (issue 34)."""
+    The observer host feeds its observers only from these (issue 34).  ``subscribers``: the
+    nodes of the model that subscribe it, the only ones whose topic statistics (ROS 1's
+    ``/statistics``) may stand for the topic's messages (docs/security.md)."""
 
     topic: str
     msg_type: str | None
     publishers: tuple[str, ...]
+    subscribers: tuple[str, ...] = ()
 
 
 def topic_sources(model: Model, observers: tuple[ObserverSpec, ...]) -> tuple[TopicSource, ...]:
@@ -58,13 +61,21 @@ def topic_sources(model: Model, observers: tuple[ObserverSpec, ...]) -> tuple[To
         for key, value in o.params
         if key in ("topic", "topic1", "topic2")
     }
-    publishers: dict[str, list[str]] = {}
+    publishers: dict[str, set[str]] = {}
+    subscribers: dict[str, set[str]] = {}
     for node in model.nodes:
         for publication in node.publishes:
-            publishers.setdefault(publication.topic.value, []).append(node.name.value)
+            publishers.setdefault(publication.topic.value, set()).add(node.name.value)
+        for topic in node.subscribes:
+            subscribers.setdefault(topic.value, set()).add(node.name.value)
     types = {t.name.value: t.msg_type for t in model.topics}
     return tuple(
-        TopicSource(topic, types.get(topic), tuple(sorted(set(publishers.get(topic, ())))))
+        TopicSource(
+            topic,
+            types.get(topic),
+            tuple(sorted(publishers.get(topic, ()))),
+            tuple(sorted(subscribers.get(topic, ()))),
+        )
         for topic in sorted(read)
     )
 

@@ -12,6 +12,12 @@ master announced) the one the master has for that ``callerid``.  A connection th
 is closed (a stranger's flood costs the host one message) and reported once; rospy opens
 it again only when the master announces the publisher again, and it is closed again at
 its first message.
+
+**Topics taken from their subscribers' statistics** (:mod:`rac.ros1.topic_statistics`).
+With ``--statistics auto``, when the robot runs with ``/enable_statistics``, a
+topic watched only for its rate and liveness, which a node of the model subscribes, is not
+subscribed here while a trusted subscriber's reports on ``/statistics`` say how many
+messages it carried; it is subscribed when none do.
 """
 
 from __future__ import annotations
@@ -25,12 +31,14 @@ from rac.passes.observers import BOARD_TOPIC, DIAGNOSTICS_TOPIC, ObserverSpec, T
 from rac.ros1.agent import start_agent
 from rac.ros1.common import Ros1Bus, header_type, node_liveness, node_uri
 from rac.ros1.tcpros import Batch, LeanReceiver, install
+from rac.ros1.topic_statistics import OFF, StatisticsReceiver, statistics_on
 from rac.runtime.guardian import DEFAULT_GONE_S
 from rac.runtime.host import ObserverHost
 from rac.runtime.nodes import run_observer_node
 from rac.runtime.procs import DEFAULT_SETTLE_S, ProcessProbe
 from rac.runtime.sources import SourceCheck
 from rac.runtime.status import rows_from_array
+from rac.runtime.topic_statistics import eligible_topics
 from rac.runtime.trust import OBSERVER
 from rac.runtime.values import Readers
 
@@ -117,6 +125,7 @@ def run_observe(
     key: bytes | None = None,
     sources: dict[str, TopicSource] | None = None,
     robot_gone_s: float = DEFAULT_GONE_S,
+    statistics: str = OFF,
 ) -> None:
     bus = Ros1Bus(name, key, OBSERVER)
     rospy = bus.rospy
@@ -141,20 +150,38 @@ def run_observe(
         topic, connection = batch.topic, batch.connection
         if not connections.admits(topic, connection.header, impls[topic]):
             return
+        if reports is not None and not reports.feed.direct(topic, host.clock()):
+            return  # taken from its subscribers' reports (a subscription being ended)
         values: list[Mapping[str, float]] = []
         if batch.bodies:
             reader = readers.reader(topic, lambda: header_type(connection.header))
             values = [reader.values(body) for body in batch.bodies]
         host.messages(topic, batch.count, batch.stamps, values, batch.seqs)
 
-    receiver = LeanReceiver(on_batch, describe)
-    host.path_cpu = lambda: receiver.cpu_s
-    install(receiver, bank.topic_fields())
-    for topic in sorted(bank.topic_fields()):
+    def subscribe(topic: str) -> Any:
         # rospy registers the subscription and makes its connections; their messages go
         # to the receiver, never to this callback.
         sub = rospy.Subscriber(topic, rospy.AnyMsg, _unused, queue_size=1)
         impls[topic] = sub.impl
+        return sub
+
+    receiver = LeanReceiver(on_batch, describe)
+    host.path_cpu = lambda: receiver.cpu_s
+    install(receiver, bank.topic_fields())
+    on, why = statistics_on(rospy, statistics)
+    eligible = eligible_topics(bank, sources) if on else {}
+    reports: StatisticsReceiver | None = None
+    if eligible:
+        reports = StatisticsReceiver(host, eligible, connections, refuse, subscribe, bus.log)
+        reports.listen(rospy)
+    bus.log(
+        0,
+        f"racc observe: topic statistics {why}"
+        + (f": {len(eligible)} topics may be taken from their subscribers' reports" if on else ""),
+    )
+    for topic in sorted(bank.topic_fields()):
+        if topic not in eligible:  # those wait for their reports (StatisticsFeed)
+            subscribe(topic)
     if bank.devices:
 
         def on_diagnostics(array: Any) -> None:
@@ -182,6 +209,7 @@ def run_observe(
         republish_s=republish_s,
         agent=agent,
         machine=machine,
+        each_tick=(lambda now: reports.each_tick(probe)) if reports is not None else None,
     )
 
 

@@ -31,6 +31,7 @@ from rac.logic import Atom
 from rac.observe import ChannelState, DeviceStatus, Event, Message, ObserverBank, Verdict
 from rac.observe.dobs import names_device, violations_first
 from rac.passes.observers import ObserverSpec, TopicSource
+from rac.runtime.cost import CostMeter, HostCost
 from rac.runtime.placement import PlacementView
 from rac.runtime.procs import ProcessProbe
 from rac.runtime.sources import SourceCheck, device_reporters, node_name
@@ -81,6 +82,10 @@ class ObserverHost:
         self._lock = threading.Lock()
         self._last_t = float("-inf")
         self.received = 0  # messages fed so far (the host's cost report)
+        # Messages fed from reports of them (ROS 1's topic statistics), never received,
+        # and how many topics are taken so now (None: the transport takes none so).
+        self.reported = 0
+        self.statistics_topics: Callable[[], int] | None = None
         # The CPU time of the thread that receives and feeds the messages, where a transport
         # has one (ROS 1's lean receiver): the per-message path, apart from the sampling.
         self.path_cpu: Callable[[], float] | None = None
@@ -104,16 +109,20 @@ class ObserverHost:
             t = self._arrival(1)
             self._feed(Message(t, topic, values, stamp))
 
-    def _arrival(self, count: int) -> float:
-        """Now, for ``count`` messages that came: a message that comes while the sample
-        tick is overdue starts a starvation (the module's docstring).  Holds the lock."""
+    def _arrival(self, count: int, reported: bool = False) -> float:
+        """Now, for ``count`` messages that came (``reported``: that a report counted): a
+        message that comes while the sample tick is overdue starts a starvation (the
+        module's docstring).  Holds the lock."""
         t = self._now()
         schedule = self.schedule
         if schedule is not None and not self.starved and self._last_tick is not None:
             late = t - self._last_tick - schedule.period_s
             if late > schedule.starved_s:
                 self._starve(t, late, "a message came")
-        self.received += count
+        if reported:
+            self.reported += count
+        else:
+            self.received += count
         return t
 
     def messages(
@@ -123,13 +132,15 @@ class ObserverHost:
         stamps: Sequence[float | None] = (),
         values: Sequence[Mapping[str, float]] = (),
         seqs: Sequence[int | None] = (),
+        reported: bool = False,
     ) -> None:
         """``count`` messages of ``topic`` received together now (a transport that reads
         what came on a connection in one pass): as many :meth:`message` calls, for one
         lock and one routing; ``stamps``, ``values`` and ``seqs`` each message's, or
-        empty."""
+        empty.  ``reported``: messages a subscriber's report counted, which the host did
+        not receive (rac.runtime.topic_statistics)."""
         with self._lock:
-            t = self._arrival(count)
+            t = self._arrival(count, reported)
             try:
                 self._keep(self.bank.feed_messages(t, topic, count, stamps, values, seqs))
             except (ArithmeticError, ValueError) as err:  # one bad batch must not stop the host
@@ -236,6 +247,11 @@ class ObserverHost:
                 "publishers publish it again"
             )
         self.restore(kept)
+
+    def retime(self, topic: str) -> None:
+        """``topic``'s frequency observers start afresh (ObserverBank.retime)."""
+        with self._lock:
+            self.bank.retime(topic)
 
     def channel_rows(self, rows: Iterable[Row]) -> None:
         """A ``/board_measurements`` array (HObs)."""
@@ -378,114 +394,8 @@ class HostStep:
     rows: tuple[Row, ...] | None  # the observation set to publish now (None: nothing)
 
 
-# The host is one Python process: past this share of one core it cannot keep up with its
-# topics (messages wait in the kernel, then come in clumps, and it starves its own ticks).
-BUSY_CPU_PERCENT = 80.0
 # A value observer paused this long or less goes on from its state when its topic resumes.
 KEEP_PAUSED_S = 10.0
-COST_PERIOD_S = 10.0  # the cost is measured over this long
-
-
-@dataclass(frozen=True, slots=True)
-class HostCost:
-    """What the observer host received and what it cost over one period: the whole process
-    (every thread: the transport's receiving, the observers, the sample loop), as a share
-    of one core and per message received."""
-
-    seconds: float
-    messages: int
-    cpu_s: float
-    starved_s: float  # of the period, how long the host was starved
-    path_s: float | None = None  # of cpu_s, the receiving thread's (None: not measured)
-
-    @property
-    def rate(self) -> float:
-        return self.messages / self.seconds if self.seconds > 0 else 0.0
-
-    @property
-    def cpu_percent(self) -> float:
-        return 100.0 * self.cpu_s / self.seconds if self.seconds > 0 else 0.0
-
-    @property
-    def us_per_message(self) -> float:
-        return 1e6 * self.cpu_s / self.messages if self.messages else 0.0
-
-    @property
-    def us_per_message_path(self) -> float | None:
-        """The receiving thread's CPU per message: client library, observers, bookkeeping."""
-        if self.path_s is None or not self.messages:
-            return None
-        return 1e6 * self.path_s / self.messages
-
-    @property
-    def keeping_up(self) -> bool:
-        return self.cpu_percent < BUSY_CPU_PERCENT and self.starved_s < 0.5 * self.seconds
-
-    def text(self) -> str:
-        path = self.us_per_message_path
-        return (
-            f"{self.rate:.0f} messages/s, {self.cpu_percent:.1f} % of a core, "
-            f"{self.us_per_message:.1f} µs a message"
-            + ("" if path is None else f" ({path:.1f} µs receiving and observing)")
-            + ("" if self.starved_s <= 0 else f", starved {self.starved_s:.1f} s")
-        )
-
-    def row(self, node: str) -> Row:
-        """``NODE: load`` on ``/diagnostics``: level 0 while the host keeps up, 1 when it
-        cannot (its timing verdicts are then held as while starved)."""
-        values: tuple[tuple[str, str], ...] = (
-            ("messages_per_s", f"{self.rate:.1f}"),
-            ("cpu_percent", f"{self.cpu_percent:.1f}"),
-            ("us_per_message", f"{self.us_per_message:.2f}"),
-            ("starved_s", f"{self.starved_s:.2f}"),
-        )
-        path = self.us_per_message_path
-        if path is not None:
-            values += (("us_per_message_path", f"{path:.2f}"),)
-        if self.keeping_up:
-            return Row(f"{node}: load", 0, self.text(), "", values)
-        return Row(f"{node}: load", 1, f"cannot keep up: {self.text()}", "", values)
-
-
-class CostMeter:
-    """Measures :class:`HostCost` every ``period_s`` of the sample loop's ticks."""
-
-    def __init__(
-        self,
-        host: ObserverHost,
-        period_s: float = COST_PERIOD_S,
-        cpu: Callable[[], float] = time.process_time,
-    ) -> None:
-        self.host, self.period_s, self.cpu = host, period_s, cpu
-        self.last: HostCost | None = None
-        # (time, messages, cpu, the receiving thread's cpu)
-        self._since: tuple[float, int, float, float | None] | None = None
-        self._starved = 0.0
-        self._starved_at: float | None = None
-
-    def tick(self, now: float) -> HostCost | None:
-        """The cost of the period that ended at ``now``, when one did."""
-        host = self.host
-        if host.starved and self._starved_at is None:
-            self._starved_at = now
-        elif not host.starved and self._starved_at is not None:
-            self._starved += now - self._starved_at
-            self._starved_at = None
-        path = host.path_cpu() if host.path_cpu is not None else None
-        if self._since is None:
-            self._since = (now, host.received, self.cpu(), path)
-            return None
-        start, received, cpu, path_before = self._since
-        if now - start < self.period_s:
-            return None
-        if self._starved_at is not None:
-            self._starved += now - self._starved_at
-            self._starved_at = now
-        used = self.cpu()
-        on_path = None if path is None or path_before is None else path - path_before
-        cost = HostCost(now - start, host.received - received, used - cpu, self._starved, on_path)
-        self._since, self._starved, self.last = (now, host.received, used, path), 0.0, cost
-        return cost
 
 
 class HostLoop:

@@ -129,6 +129,10 @@ class ProcessProbe:
         found = self.placement.get(node)
         return found is not None and found.unknown
 
+    def running(self, node: str) -> bool | None:
+        """Whether the node ran at its latest sample (None: not judged)."""
+        return self._alive.get(node)
+
     def pid(self, node: str) -> int | None:
         proc = self._procs.get(node)
         return proc.pid if proc is not None else None

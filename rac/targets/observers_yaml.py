@@ -42,6 +42,7 @@ def _document(
         ],
         "topics": [
             {"topic": t.topic, "type": t.msg_type, "publishers": list(t.publishers)}
+            | ({"subscribers": list(t.subscribers)} if t.subscribers else {})
             for t in sources
         ],
     }
@@ -61,7 +62,11 @@ def _sources(sources: tuple[TopicSource, ...]) -> str:
             out.extend(f"  - {yaml_text.scalar(p, strings)}\n" for p in t.publishers)
         else:
             out.append("  publishers: []\n")
+        if t.subscribers:
+            out.append("  subscribers:\n")
+            out.extend(f"  - {yaml_text.scalar(n, strings)}\n" for n in t.subscribers)
     texts = [t.topic for t in sources] + [p for t in sources for p in t.publishers]
+    texts += [n for t in sources for n in t.subscribers]
     texts += [t.msg_type for t in sources if t.msg_type is not None]
     yaml_text.check_plain(texts)
     return "".join(out)

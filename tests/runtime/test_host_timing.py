@@ -138,7 +138,7 @@ def test_a_late_tick_does_not_make_the_next_ones_come_early() -> None:
 
 
 def test_the_host_measures_its_cost_and_says_when_it_cannot_keep_up() -> None:
-    from rac.runtime.host import CostMeter
+    from rac.runtime.cost import CostMeter
 
     host = ObserverHost([])
     cpu = [0.0]
@@ -160,6 +160,29 @@ def test_the_host_measures_its_cost_and_says_when_it_cannot_keep_up() -> None:
     row = busy.row("racc_observer")
     assert row.level == 1 and row.message.startswith("cannot keep up: 1000 messages/s, 90.0 %")
     assert row.name == "racc_observer: load"
+
+
+def test_the_cost_says_how_many_topics_reports_stand_for_and_counts_them_apart() -> None:
+    from rac.runtime.cost import CostMeter
+
+    host = ObserverHost([SPEC], clock=lambda: 1.0)
+    cpu = [0.0]
+    meter = CostMeter(host, period_s=10.0, cpu=lambda: cpu[0])
+    assert meter.tick(0.0) is None
+    host.messages("/x", 300)
+    host.messages("/x", 7000, reported=True)
+    host.statistics_topics = lambda: 98
+    cpu[0] = 0.1
+    cost = meter.tick(10.0)
+    assert cost is not None and cost.rate == pytest.approx(30.0)
+    row = cost.row("racc_observer")
+    assert row.message.endswith(
+        "; 98 topics from /statistics (700 messages/s reported, not received)"
+    )
+    assert ("statistics_topics", "98") in row.values and ("reported_per_s", "700.0") in row.values
+    host.statistics_topics = None
+    plain = meter.tick(20.0)
+    assert plain is not None and "statistics" not in plain.row("racc_observer").message
 
 
 def test_a_change_publishes_its_rows_and_every_row_goes_out_once_a_second() -> None:
