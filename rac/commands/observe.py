@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import math
+from collections.abc import Callable
 from typing import Any
 
 from rac.commands.common import add_command, add_ros_option, ros_version
@@ -110,24 +112,18 @@ def run(args: argparse.Namespace) -> int:
     name = f"racc_observer_{machine}" if machine else "racc_observer"
     key = load_secret(args.secret or None)
     sources = dict(loaded.sources) if loaded.sources is not None else None
+    start: Callable[..., None]
     if ros_version(args) == 2:
         from rac.ros2.observe import run_observe
 
-        run_observe(
-            specs,
-            sample_hz=args.rate,
-            name=name,
-            machine=machine,
-            launch=args.launch or None,
-            settle_s=args.settle,
-            key=key,
-            sources=sources,
-            robot_gone_s=args.robot_gone,
-        )
-        return 0
-    from rac.ros1.observe import run_observe as run_ros1
+        if args.statistics != "off":
+            print("racc observe: --statistics is ROS 1's (roscpp's /statistics): ignored")
+        start = run_observe
+    else:
+        from rac.ros1.observe import run_observe as run_ros1
 
-    run_ros1(
+        start = functools.partial(run_ros1, statistics=args.statistics)
+    start(
         specs,
         sample_hz=args.rate,
         name=name,
@@ -137,6 +133,5 @@ def run(args: argparse.Namespace) -> int:
         key=key,
         sources=sources,
         robot_gone_s=args.robot_gone,
-        statistics=args.statistics,
     )
     return 0
