@@ -20,6 +20,8 @@ entry, a few regex calls per observer::
       type: TYPE
       publishers:
       - NODE
+      subscribers:      # only when the model has some
+      - NODE
 
 :func:`racc_layout_document` gives exactly what ``yaml.safe_load`` gives, or None for any
 other text (then the caller reads it with the YAML path and its limits).  A line is accepted
@@ -59,11 +61,13 @@ _ENTRY = re.compile(
     rf"  reports:(?: \[\]\n|\n((?:  - {_SCALAR}\n)+))"
 )
 _PARAM = re.compile(rf"    ({_KEY}): ({_SCALAR})\n")
-# The topics section (the observed topics' types and publishers), after the observers.
+# The topics section (the observed topics' types, publishers and subscribers, the latter
+# only when there are some), after the observers.
 _TOPICS = re.compile(r"topics:(?: (\[\]))?\n")
 _SOURCE = re.compile(
     rf"- topic: ({_SCALAR})\n  type: ({_SCALAR})\n"
     rf"  publishers:(?: \[\]\n|\n((?:  - {_SCALAR}\n)+))"
+    rf"(?:  subscribers:\n((?:  - {_SCALAR}\n)+))?"
 )
 _TAIL = re.compile(_COMMENT)  # after the last entry
 
@@ -142,9 +146,12 @@ def _sources(
     out: list[dict[str, Any]] = []
     while (found := _SOURCE.match(text, pos)) is not None:
         pos = found.end()
-        topic, kind, block = found.groups()
+        topic, kind, block, subscribed = found.groups()
         publishers = [scalars[p] for p in block[4:-1].split("\n  - ")] if block else []
-        out.append({"topic": scalars[topic], "type": scalars[kind], "publishers": publishers})
+        entry = {"topic": scalars[topic], "type": scalars[kind], "publishers": publishers}
+        if subscribed:
+            entry["subscribers"] = [scalars[n] for n in subscribed[4:-1].split("\n  - ")]
+        out.append(entry)
     return (out or None), pos
 
 
