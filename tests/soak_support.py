@@ -171,6 +171,29 @@ def start_watch(procs: Processes, ros: str) -> Watch:
     return watch
 
 
+def racc_learn(recording: Path, stem: Path, learned: Path, env: dict[str, str]) -> Path:
+    """``racc learn`` of what ``racc record -o STEM`` wrote (the recording, STEM.graph.yaml,
+    STEM.properties.csv): the model ``learned``, as a user would learn it."""
+    subprocess.run(
+        [
+            *RACC,
+            "learn",
+            str(recording),
+            "--graph",
+            f"{stem}.graph.yaml",
+            "--properties",
+            f"{stem}.properties.csv",
+            "-o",
+            str(learned),
+            "-q",
+        ],
+        check=True,
+        env=env,
+        timeout=600,
+    )
+    return learned
+
+
 @contextmanager
 def cpu_load(procs: Processes, percent: int, cpus: int = 2) -> Iterator[None]:
     """stress-ng's cpu workers, one per core, each busy ``percent`` of the time."""

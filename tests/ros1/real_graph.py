@@ -35,6 +35,7 @@ from soak_support import (  # noqa: E402
     all_ok_since,
     free_port,
     kill_pid,
+    racc_learn,
     start_watch,
 )
 
@@ -234,23 +235,5 @@ def learn_model(
         )
     finally:
         stop_robot_and_runtime(graph, robot)
-    learned = graph.tmp / "learned.ram"
     progress("racc learn")
-    subprocess.run(
-        [
-            *RACC,
-            "learn",
-            str(bag),
-            "--graph",
-            str(graph.tmp / "learn.graph.yaml"),
-            "--properties",
-            str(graph.tmp / "learn.properties.csv"),
-            "-o",
-            str(learned),
-            "-q",
-        ],
-        check=True,
-        env=graph.env,
-        timeout=600,
-    )
-    return learned
+    return racc_learn(bag, graph.tmp / "learn", graph.tmp / "learned.ram", graph.env)

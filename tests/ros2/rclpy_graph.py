@@ -35,7 +35,15 @@ sys.path.insert(0, str(HERE.parent))  # tests/: soak_support
 sys.path.insert(0, str(HERE.parent / "ros1"))  # relay_graph: the shape, the model
 
 import relay_graph  # noqa: E402
-from soak_support import RACC, Processes, Watch, kill_group, kill_pid, start_watch  # noqa: E402
+from soak_support import (  # noqa: E402
+    RACC,
+    Processes,
+    Watch,
+    kill_group,
+    kill_pid,
+    racc_learn,
+    start_watch,
+)
 
 PACKAGE = "racc_relays"
 NODES_MODULE = HERE / "rclpy_graph_nodes.py"
@@ -300,23 +308,5 @@ def learn_model(
         )
     finally:
         graph.stop_robot_and_runtime(robot)
-    learned = graph.tmp / "learned.ram"
     progress("racc learn")
-    subprocess.run(
-        [
-            *RACC,
-            "learn",
-            str(record),
-            "--graph",
-            str(graph.tmp / "learn.graph.yaml"),
-            "--properties",
-            str(graph.tmp / "learn.properties.csv"),
-            "-o",
-            str(learned),
-            "-q",
-        ],
-        check=True,
-        env=graph.env,
-        timeout=600,
-    )
-    return learned
+    return racc_learn(record, record, graph.tmp / "learned.ram", graph.env)
