@@ -171,6 +171,19 @@ def start_watch(procs: Processes, ros: str) -> Watch:
     return watch
 
 
+def compile_model(model: Path, build: Path, env: dict[str, str]) -> int:
+    """``racc compile``; the number of atoms the observers report."""
+    from rac.load.files import load_observers
+
+    subprocess.run(
+        [*RACC, "compile", str(model), "-o", str(build), "--no-svg", "-q"],
+        check=True,
+        env=env,
+        timeout=120,
+    )
+    return sum(len(s.atoms) for s in load_observers(build / "observers.yaml")[1])
+
+
 def racc_learn(recording: Path, stem: Path, learned: Path, env: dict[str, str]) -> Path:
     """``racc learn`` of what ``racc record -o STEM`` wrote (the recording, STEM.graph.yaml,
     STEM.properties.csv): the model ``learned``, as a user would learn it."""

@@ -301,12 +301,10 @@ class PidResolver:
         now = time.monotonic()
         key = node_key(node)
         age = now - self._scanned
-        if age >= self.table_s or (age >= self.missing_s and not self._live(key)):
+        procs = self._running(key)
+        if age >= self.table_s or (age >= self.missing_s and not procs):
             self._index, self._scanned = index_by_node(self._table.scan()), now
-        procs = self._index.get(key, [])
-        for gone in [p for p in procs if not _alive(p)]:
-            procs.remove(gone)
-            self._table.forget(gone)  # its pid, if reused, is read again
+            procs = self._running(key)
         proc = innermost(procs)
         found = prove_by_cmdline(int(proc.pid)) if proc is not None else None
         if found is not None and found.pid is not None:
@@ -318,8 +316,14 @@ class PidResolver:
             return None
         return found or Found(None, "in the graph without a process here: another machine")
 
-    def _live(self, key: tuple[str, str]) -> bool:
-        return any(_alive(p) for p in self._index.get(key, ()))
+    def _running(self, key: tuple[str, str]) -> list[Any]:
+        """The node's processes in the table that still run; the others leave it (a pid of
+        theirs, if reused, is read again)."""
+        procs = self._index.get(key, [])
+        for gone in [p for p in procs if not _alive(p)]:
+            procs.remove(gone)
+            self._table.forget(gone)
+        return procs
 
 
 def _alive(proc: Any) -> bool:

@@ -33,6 +33,7 @@ from soak_support import (  # noqa: E402
     Processes,
     Watch,
     all_ok_since,
+    compile_model,
     free_port,
     kill_pid,
     racc_learn,
@@ -61,19 +62,6 @@ def write_robot_launch(directory: Path) -> Path:
     path = directory / "robot.launch"
     path.write_text(text, encoding="utf-8")
     return path
-
-
-def compile_model(model: Path, build: Path, env: dict[str, str]) -> int:
-    """``racc compile``; the number of atoms the observers report."""
-    from rac.load.files import load_observers
-
-    subprocess.run(
-        [*RACC, "compile", str(model), "-o", str(build), "--no-svg", "-q"],
-        check=True,
-        env=env,
-        timeout=120,
-    )
-    return sum(len(s.atoms) for s in load_observers(build / "observers.yaml")[1])
 
 
 @dataclass

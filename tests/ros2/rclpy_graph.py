@@ -39,6 +39,7 @@ from soak_support import (  # noqa: E402
     RACC,
     Processes,
     Watch,
+    compile_model,
     kill_group,
     kill_pid,
     racc_learn,
@@ -115,19 +116,6 @@ def write(directory: Path, relays: int, data: Path, divisor: int = 1) -> tuple[P
     model = directory / f"relays_{relays}.ram"
     model.write_text(relay_graph.model_text(relays, options(divisor)), encoding="utf-8")
     return launch, model
-
-
-def compile_model(model: Path, build: Path, env: dict[str, str]) -> int:
-    """``racc compile``; the number of atoms the observers report."""
-    from rac.load.files import load_observers
-
-    subprocess.run(
-        [*RACC, "compile", str(model), "-o", str(build), "--no-svg", "-q"],
-        check=True,
-        env=env,
-        timeout=120,
-    )
-    return sum(len(s.atoms) for s in load_observers(build / "observers.yaml")[1])
 
 
 def mine(prefix: Path) -> list[psutil.Process]:
